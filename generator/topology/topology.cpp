@@ -1,0 +1,228 @@
+#include "topology/topology.hpp"
+
+#include <stdexcept>
+
+#include "ir/error.hpp"
+
+namespace jrgen::topology {
+
+namespace {
+
+// Mass properties accumulated about a body origin: m, first moment m c and
+// rotational inertia about the origin, all in body coordinates.
+struct MassAccumulator {
+  double m = 0.0;
+  Eigen::Vector3d h = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d I_o = Eigen::Matrix3d::Zero();
+
+  // Adds a link's inertial placed at X_BL.
+  void add(const ir::Inertial& in, const ir::Pose& X_BL) {
+    const Eigen::Vector3d c = X_BL.p + X_BL.R * in.com;
+    const Eigen::Matrix3d Ic = X_BL.R * in.I_com * X_BL.R.transpose();
+    m += in.mass;
+    h += in.mass * c;
+    I_o += Ic + in.mass * (c.squaredNorm() * Eigen::Matrix3d::Identity() - c * c.transpose());
+  }
+
+  ir::Inertial to_inertial() const {
+    ir::Inertial out;
+    out.mass = m;
+    out.com = m > 0.0 ? Eigen::Vector3d(h / m) : Eigen::Vector3d::Zero();
+    out.I_com = I_o - m * (out.com.squaredNorm() * Eigen::Matrix3d::Identity() -
+                           out.com * out.com.transpose());
+    out.I_com = 0.5 * (out.I_com + out.I_com.transpose());
+    return out;
+  }
+};
+
+// Planar in-plane directions, cyclic from the normal (INTERFACE.md section 3).
+void planar_directions(const Eigen::Vector3d& n, Eigen::Vector3d& e1, Eigen::Vector3d& e2) {
+  int axis = 0;
+  n.cwiseAbs().maxCoeff(&axis);
+  const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
+  e1 = Eigen::Vector3d::Unit(a1);
+  e2 = Eigen::Vector3d::Unit(a2);  // for a negative normal too, as INTERFACE.md states it
+}
+
+}  // namespace
+
+ir::Pose compose(const ir::Pose& X_AB, const ir::Pose& X_BC) {
+  ir::Pose X_AC;
+  X_AC.R = X_AB.R * X_BC.R;
+  X_AC.p = X_AB.p + X_AB.R * X_BC.p;
+  return X_AC;
+}
+
+std::vector<int> Tree::ancestors(int dof_lem) const {
+  std::vector<int> out;
+  for (int r = dof_parent[dof_lem]; r >= 0; r = dof_parent[r]) out.push_back(r);
+  return out;
+}
+
+std::vector<std::vector<int>> Tree::descendants() const {
+  std::vector<std::vector<int>> out(nv);
+  for (int i = 0; i < nv; ++i)
+    for (int r = dof_parent[i]; r >= 0; r = dof_parent[r]) out[r].push_back(i);
+  return out;
+}
+
+Tree build_tree(const ir::Robot& robot) {
+  Tree tree;
+  const int num_links = static_cast<int>(robot.links.size());
+  tree.links.assign(num_links, LinkPlacement{});
+
+  // 1. Fuse fixed joints, creating bodies in user order (joints are stored
+  //    depth-first, so a joint's parent link is always placed already).
+  std::vector<Body> user_bodies;
+  std::vector<MassAccumulator> mass;
+  std::vector<bool> placed(num_links, false);
+  placed[robot.root_link] = true;
+  int q_user = 0, v_user = 0;
+  for (int j = 0; j < static_cast<int>(robot.joints.size()); ++j) {
+    const ir::Joint& joint = robot.joints[j];
+    if (!placed[joint.parent_link])
+      throw std::logic_error("joints not in depth-first order at joint " + joint.name);
+    const LinkPlacement& parent = tree.links[joint.parent_link];
+    LinkPlacement& child = tree.links[joint.child_link];
+    placed[joint.child_link] = true;
+    if (joint.type == ir::JointType::Fixed) {
+      child.body_lem = parent.body_lem;  // still a user index; relabelled below
+      child.X_BL = compose(parent.X_BL, joint.origin);
+    } else {
+      Body body;
+      body.joint_name = joint.name;
+      body.type = joint.type;
+      body.joint_ir = j;
+      body.joint_user = static_cast<int>(user_bodies.size());
+      body.parent_lem = parent.body_lem;
+      body.nq = ir::joint_nq(joint.type);
+      body.nv = ir::joint_nv(joint.type);
+      body.q_user = q_user;
+      body.v_user = v_user;
+      q_user += body.nq;
+      v_user += body.nv;
+      body.X_PJ = compose(parent.X_BL, joint.origin);
+      body.axis = joint.axis;
+      if (joint.type == ir::JointType::Planar) planar_directions(joint.axis, body.e1, body.e2);
+      body.damping = joint.damping;
+      child.body_lem = body.joint_user;
+      child.X_BL = ir::Pose{};
+      user_bodies.push_back(body);
+      mass.emplace_back();
+    }
+    if (child.body_lem >= 0) {
+      mass[child.body_lem].add(robot.links[joint.child_link].inertial, child.X_BL);
+      user_bodies[child.body_lem].links.push_back(joint.child_link);
+    }
+  }
+  tree.nq = q_user;
+  tree.nv = v_user;
+  const int nb = static_cast<int>(user_bodies.size());
+  for (int b = 0; b < nb; ++b) user_bodies[b].inertial = mass[b].to_inertial();
+
+  // A moving body whose whole subtree carries no mass makes a zero row in M.
+  {
+    std::vector<double> subtree_mass(nb, 0.0), subtree_inertia(nb, 0.0);
+    for (int b = nb - 1; b >= 0; --b) {  // preorder reversed: children first
+      subtree_mass[b] += user_bodies[b].inertial.mass;
+      subtree_inertia[b] += user_bodies[b].inertial.I_com.trace();
+      if (user_bodies[b].parent_lem >= 0) {
+        subtree_mass[user_bodies[b].parent_lem] += subtree_mass[b];
+        subtree_inertia[user_bodies[b].parent_lem] += subtree_inertia[b];
+      }
+    }
+    for (int b = 0; b < nb; ++b)
+      if (!(subtree_mass[b] > 0.0) && !(subtree_inertia[b] > 0.0)) {
+        const ir::Joint& joint = robot.joints[user_bodies[b].joint_ir];
+        throw Error(joint.where, "joint", joint.name,
+                    "moves no mass (every link it carries has zero mass and inertia), so the "
+                    "mass matrix is singular; give the child link an <inertial>");
+      }
+  }
+
+  // 2. Lemma 2 renumbering: post-order (children in user order, then the
+  //    parent), so every descendant precedes its ancestors.
+  std::vector<std::vector<int>> children(nb);
+  std::vector<int> roots;
+  for (int b = 0; b < nb; ++b) {
+    if (user_bodies[b].parent_lem >= 0) children[user_bodies[b].parent_lem].push_back(b);
+    else roots.push_back(b);
+  }
+  std::vector<int> lem_of_user(nb, -1), order;
+  order.reserve(nb);
+  // Iterative post-order (deep chains must not overflow the stack).
+  std::vector<std::pair<int, std::size_t>> stack;
+  for (int root : roots) {
+    stack.emplace_back(root, 0);
+    while (!stack.empty()) {
+      auto& [b, next] = stack.back();
+      if (next < children[b].size()) {
+        const int c = children[b][next++];
+        stack.emplace_back(c, 0);
+      } else {
+        lem_of_user[b] = static_cast<int>(order.size());
+        order.push_back(b);
+        stack.pop_back();
+      }
+    }
+  }
+  tree.bodies.resize(nb);
+  tree.body_of_user_joint = lem_of_user;
+  for (int b = 0; b < nb; ++b) {
+    Body body = user_bodies[b];
+    body.parent_lem = body.parent_lem >= 0 ? lem_of_user[body.parent_lem] : -1;
+    for (int c : children[b]) body.children_lem.push_back(lem_of_user[c]);
+    tree.bodies[lem_of_user[b]] = body;
+  }
+  for (LinkPlacement& lp : tree.links)
+    if (lp.body_lem >= 0) lp.body_lem = lem_of_user[lp.body_lem];
+
+  // 3. Dof-level structure.  Within a joint the dofs form a chain (the
+  //    diagonal block is dense); a joint's last dof hangs below the parent
+  //    joint's first dof.
+  tree.dof_parent.assign(tree.nv, -1);
+  tree.dof_body.assign(tree.nv, -1);
+  tree.dof_user.assign(tree.nv, -1);
+  tree.dof_depth.assign(tree.nv, 0);
+  int v_lem = 0;
+  for (int b = 0; b < nb; ++b) {
+    tree.bodies[b].v_lem = v_lem;
+    v_lem += tree.bodies[b].nv;
+  }
+  for (int b = 0; b < nb; ++b) {
+    const Body& body = tree.bodies[b];
+    for (int k = 0; k < body.nv; ++k) {
+      const int d = body.v_lem + k;
+      tree.dof_body[d] = b;
+      tree.dof_user[d] = body.v_user + k;
+      if (k + 1 < body.nv) tree.dof_parent[d] = d + 1;
+      else if (body.parent_lem >= 0) tree.dof_parent[d] = tree.bodies[body.parent_lem].v_lem;
+    }
+  }
+  for (int d = tree.nv - 1; d >= 0; --d)  // parents have larger indices
+    tree.dof_depth[d] = tree.dof_parent[d] >= 0 ? tree.dof_depth[tree.dof_parent[d]] + 1 : 0;
+  tree.M_col_start.assign(tree.nv + 1, 0);
+  for (int d = 0; d < tree.nv; ++d) tree.M_col_start[d + 1] = tree.M_col_start[d] + tree.dof_depth[d] + 1;
+
+  check_lemma2(tree);
+  return tree;
+}
+
+void check_lemma2(const Tree& tree) {
+  const int nb = static_cast<int>(tree.bodies.size());
+  for (int b = 0; b < nb; ++b) {
+    const Body& body = tree.bodies[b];
+    if (body.parent_lem >= 0 && body.parent_lem <= b)
+      throw std::logic_error("Lemma 2 violated: body of joint " + body.joint_name +
+                             " does not precede its parent");
+    if (body.parent_lem >= nb) throw std::logic_error("parent index out of range");
+  }
+  for (int d = 0; d < tree.nv; ++d) {
+    const int p = tree.dof_parent[d];
+    if (p >= 0 && p <= d) throw std::logic_error("Lemma 2 violated at dof " + std::to_string(d));
+    if (tree.M_col_start[d + 1] - tree.M_col_start[d] != tree.dof_depth[d] + 1)
+      throw std::logic_error("packed layout inconsistent at dof " + std::to_string(d));
+  }
+}
+
+}  // namespace jrgen::topology

@@ -1,0 +1,81 @@
+// Topology analysis: from the user's link/joint tree (ir::Robot) to the body
+// tree the solver works on.
+//   1. fuse fixed joints: every link is carried by the nearest moving joint
+//      above it (or by the fixed base);
+//   2. renumber the moving bodies so that descendants come before ancestors
+//      (Lemma 2), which makes the block Cholesky factor of M free of fill-in;
+//   3. derive the sparsity of M and L at the level of single velocity
+//      coordinates ("dofs"): column j of L is non-zero exactly in the rows of
+//      j's ancestors (eq. 18 with Lemma 2).
+// Pure functions of the IR; no numerics beyond composing frames and inertias.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "ir/ir.hpp"
+
+namespace jrgen::topology {
+
+/// One moving tree joint and the rigid body it carries (its child link plus
+/// every link fused to it through fixed joints).  Stored in Lemma 2 order.
+struct Body {
+  std::string joint_name;
+  ir::JointType type = ir::JointType::Revolute;
+  int joint_ir = -1;         ///< index into ir::Robot::joints
+  int joint_user = -1;       ///< position among moving joints, user order
+  int parent_lem = -1;       ///< Lemma 2 index of the parent body; -1: the fixed base
+  std::vector<int> children_lem;  ///< in user order
+  int nq = 0, nv = 0;
+  int q_user = 0, v_user = 0;  ///< first coordinates in user q and v
+  int v_lem = 0;               ///< first velocity coordinate in Lemma 2 order
+  ir::Pose X_PJ;  ///< joint frame in the parent *body* frame (fixed joints folded in)
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitX();  ///< revolute/prismatic axis, planar normal
+  Eigen::Vector3d e1 = Eigen::Vector3d::Zero(), e2 = Eigen::Vector3d::Zero();  ///< planar
+  double damping = 0.0;
+  ir::Inertial inertial;  ///< fused mass properties, body frame
+  std::vector<int> links;  ///< ir links carried, child link first
+};
+
+/// Where an ir link sits: on body `body_lem` (-1: the fixed base) at X_BL.
+struct LinkPlacement {
+  int body_lem = -1;
+  ir::Pose X_BL;
+};
+
+struct Tree {
+  std::vector<Body> bodies;  ///< Lemma 2 order
+  std::vector<LinkPlacement> links;  ///< one per ir link
+  std::vector<int> body_of_user_joint;  ///< moving joint in user order -> Lemma 2 body
+  int nq = 0, nv = 0;
+  // Dof-level structure, Lemma 2 order (nv entries each).
+  std::vector<int> dof_parent;  ///< next dof up the tree, -1 at a root
+  std::vector<int> dof_body;    ///< body that owns the dof
+  std::vector<int> dof_user;    ///< user velocity index
+  std::vector<int> dof_depth;   ///< number of ancestors
+  std::vector<int> M_col_start; ///< packed column starts (nv + 1): rows j, parent(j), ...
+
+  int nnz() const { return M_col_start.empty() ? 0 : M_col_start.back(); }
+  /// Packed position of (row, col), row an ancestor of or equal to col.
+  int packed(int row_lem, int col_lem) const {
+    return M_col_start[col_lem] + dof_depth[col_lem] - dof_depth[row_lem];
+  }
+  /// Ancestors of a dof, nearest first (the non-zero rows of column dof of L below the diagonal).
+  std::vector<int> ancestors(int dof_lem) const;
+  /// Descendants of every dof, ascending (the family F of Remark 2, dof level).
+  std::vector<std::vector<int>> descendants() const;
+};
+
+/// Steps 1-3 above.  Throws jrgen::Error for trees whose mass matrix would be
+/// singular for structural reasons (a moving body that carries no mass).
+Tree build_tree(const ir::Robot& robot);
+
+/// The precondition the generated factorization relies on (STYLE.md section 5,
+/// as Pinocchio's CRBA checker): parent after child, dof chains consistent,
+/// packed layout complete.  Throws std::logic_error when violated.
+void check_lemma2(const Tree& tree);
+
+/// Composition helpers on ir::Pose.
+ir::Pose compose(const ir::Pose& X_AB, const ir::Pose& X_BC);
+
+}  // namespace jrgen::topology

@@ -1,0 +1,37 @@
+// The models every numeric test runs on: the project's own models, the real
+// robots of ../shared/models-external (each given a floating base when the
+// file has none), and seeded random trees of 1 to 500 bodies.
+#pragma once
+
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "ir/ir.hpp"
+
+namespace jrgen::testing {
+
+struct ModelCase {
+  std::string name;  ///< short, usable as a test name
+  std::string urdf;  ///< URDF text
+};
+
+/// models/*.urdf that are trees (no <loop_joint>), read from JRGEN_SOURCE_DIR.
+std::vector<ModelCase> project_tree_models();
+/// Every ../shared/models-external/*.urdf, wrapped with add_floating_base().
+std::vector<ModelCase> external_models();
+/// Seeded random trees with mixed joint types, 1 to 500 bodies.
+std::vector<ModelCase> random_trees();
+/// All of the above.
+std::vector<ModelCase> all_tree_models();
+
+/// Gives every link without mass a 10 g, 1e-6 kg m^2 <inertial>.
+std::string give_massless_links_inertia(const std::string& urdf);
+
+/// For gtest parameter printing.
+inline void PrintTo(const ModelCase& c, std::ostream* os) { *os << c.name; }
+
+/// Reads a file into a string; throws std::runtime_error when unreadable.
+std::string read_text(const std::string& path);
+
+}  // namespace jrgen::testing
