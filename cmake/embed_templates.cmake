@@ -1,0 +1,16 @@
+# Writes OUT, a C++ file holding every file of TEMPLATES as a raw string, and
+# the lookup function jrgen::emit::template_text().  Run with cmake -P.
+string(REPLACE "|" ";" TEMPLATES "${TEMPLATES}")
+set(body "// Generated from templates/ by cmake/embed_templates.cmake; do not edit.\n")
+string(APPEND body "#include \"emit/template.hpp\"\n\n#include <stdexcept>\n#include <string>\n\n")
+string(APPEND body "namespace jrgen::emit {\n\nstd::string_view template_text(std::string_view file_name) {\n")
+foreach(path IN LISTS TEMPLATES)
+  get_filename_component(name "${path}" NAME)
+  file(READ "${path}" text)
+  string(APPEND body "  if (file_name == \"${name}\") {\n    static const char kText[] = R\"jrgen_tmpl(${text})jrgen_tmpl\";\n")
+  string(APPEND body "    return std::string_view(kText, sizeof(kText) - 1);\n  }\n")
+endforeach()
+string(APPEND body "  throw std::runtime_error(\"no template named \" + std::string(file_name));\n}\n\n}  // namespace jrgen::emit\n")
+file(WRITE "${OUT}.tmp" "${body}")
+file(COPY_FILE "${OUT}.tmp" "${OUT}" ONLY_IF_DIFFERENT)
+file(REMOVE "${OUT}.tmp")

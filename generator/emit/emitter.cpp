@@ -1,0 +1,497 @@
+#include "emit/emitter.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+
+#include "emit/code_writer.hpp"
+#include "emit/template.hpp"
+#include "ir/error.hpp"
+
+namespace jrgen::emit {
+
+namespace {
+
+// Functions longer than this many statements are split, so that the compiler
+// never sees one giant basic block (compile time grows faster than linearly).
+constexpr std::size_t kMaxStatementsPerFunction = 4000;
+// Sums of more products than this are split into partial sums.
+constexpr std::size_t kMaxTermsPerStatement = 8;
+
+// Round-trip formatting of model constants (shortest exact representation).
+std::string num(double x) {
+  if (x == 0.0) return "0.0";
+  std::string s = fmt::format("{}", x);
+  if (s.find_first_of(".eEn") == std::string::npos) s += ".0";
+  return s;
+}
+
+std::string vec(const Eigen::Vector3d& v) {
+  return fmt::format("{{{}, {}, {}}}", num(v[0]), num(v[1]), num(v[2]));
+}
+
+template <typename Range>
+std::string join_ints(const Range& values) {
+  std::string out;
+  for (const auto& v : values) {
+    if (!out.empty()) out += ", ";
+    out += std::to_string(v);
+  }
+  return out;
+}
+
+const char* joint_kind(ir::JointType type) {
+  switch (type) {
+    case ir::JointType::Revolute:
+    case ir::JointType::Continuous: return "jr::JointKind::kRevolute";
+    case ir::JointType::Prismatic: return "jr::JointKind::kPrismatic";
+    case ir::JointType::Ball: return "jr::JointKind::kBall";
+    case ir::JointType::Floating: return "jr::JointKind::kFloating";
+    case ir::JointType::Planar: return "jr::JointKind::kPlanar";
+    case ir::JointType::Fixed: break;
+  }
+  return "?";
+}
+
+// A product a * b of two named scalars.
+struct Term {
+  std::string a, b;
+};
+
+// A straight-line kernel under construction: a list of indivisible units
+// (one per column or row), each a few statements, with an operation count.
+struct Kernel {
+  struct Unit {
+    std::vector<std::string> lines;
+    std::size_t statements = 0;
+  };
+  std::vector<Unit> units;
+  OpCount ops;
+
+  Unit& unit() { return units.emplace_back(); }
+
+  // Appends "target = (base - sum terms) * scale;" (scale may be empty; base
+  // may be empty for "-sum").  Counts len(terms) multiplications and
+  // additions, plus one multiplication for the scale.  Long sums are split
+  // into partial sums of kMaxTermsPerStatement products.
+  void update(Unit& u, const std::string& indent, const std::string& target, const std::string& base,
+              const std::vector<Term>& terms, const std::string& scale, const std::string& decl = "",
+              const std::string& acc = "s") {
+    ops.mul += static_cast<long long>(terms.size());
+    ops.add += static_cast<long long>(terms.size());
+    if (!scale.empty()) ops.mul += 1;
+    auto products = [&](std::size_t from, std::size_t to) {
+      std::string s;
+      for (std::size_t k = from; k < to; ++k) {
+        if (k > from) s += " + ";
+        s += terms[k].a + " * " + terms[k].b;
+      }
+      return s;
+    };
+    std::string value;
+    if (terms.empty()) {
+      value = base;
+    } else if (terms.size() <= kMaxTermsPerStatement) {
+      const std::string sum = products(0, terms.size());
+      value = terms.size() == 1 ? base + " - " + sum : base + " - (" + sum + ")";
+    } else {
+      // Partial sums: s = first chunk; s += next chunk; ...
+      for (std::size_t from = 0; from < terms.size(); from += kMaxTermsPerStatement) {
+        const std::size_t to = std::min(terms.size(), from + kMaxTermsPerStatement);
+        u.lines.push_back(indent + (from == 0 ? "double " + acc + " = " : acc + " += ") + products(from, to) + ";");
+        ++u.statements;
+      }
+      value = base + " - " + acc;
+    }
+    const std::string rhs = scale.empty() ? value : (terms.empty() ? value + " * " + scale
+                                                                    : "(" + value + ") * " + scale);
+    if (decl.empty() && terms.empty() && !scale.empty() && target == base) {
+      u.lines.push_back(indent + target + " *= " + scale + ";");
+    } else {
+      u.lines.push_back(indent + decl + target + " = " + rhs + ";");
+    }
+    ++u.statements;
+  }
+
+  // Functions of at most kMaxStatementsPerFunction statements, and a driver
+  // `name(args)` calling them in order.  With `checked`, the parts return int
+  // (non-zero: stop) and the driver forwards it.
+  std::string functions(const std::string& name, const std::string& params, const std::string& args,
+                        bool checked, const std::string& doc) const {
+    std::vector<std::vector<const Unit*>> parts(1);
+    std::size_t count = 0;
+    for (const Unit& u : units) {
+      if (count > 0 && count + u.statements > kMaxStatementsPerFunction) {
+        parts.emplace_back();
+        count = 0;
+      }
+      parts.back().push_back(&u);
+      count += u.statements;
+    }
+    const std::string ret = checked ? "int" : "void";
+    CodeWriter w;
+    // Parameter names ("double* L" -> "L"); one a body never indexes is
+    // marked used, so tiny models compile under -Wunused-parameter.
+    std::vector<std::string> names;
+    for (std::size_t pos = 0; pos < params.size();) {
+      std::size_t end = params.find(',', pos);
+      if (end == std::string::npos) end = params.size();
+      const std::string piece = params.substr(pos, end - pos);
+      names.push_back(piece.substr(piece.find_last_of(" *") + 1));
+      pos = end + 1;
+    }
+    auto body = [&](const std::vector<const Unit*>& part) {
+      for (const std::string& n : names) {
+        bool used = false;
+        for (const Unit* u : part)
+          for (const std::string& l : u->lines) used = used || l.find(n + "[") != std::string::npos;
+        if (!used) w.line("(void)" + n + ";");
+      }
+      for (const Unit* u : part)
+        for (const std::string& l : u->lines) w.line(l);
+    };
+    for (const std::string& d : split_lines(doc)) w.comment(d);
+    if (parts.size() == 1) {
+      CodeWriter::Scope f(w, ret + " " + name + "(" + params + ")");
+      body(parts[0]);
+      if (checked) w.line("return 0;");
+    } else {
+      for (std::size_t p = 0; p < parts.size(); ++p) {
+        CodeWriter::Scope f(w, fmt::format("{} {}_part{}({})", ret, name, p, params));
+        body(parts[p]);
+        if (checked) w.line("return 0;");
+      }
+      w.blank();
+      CodeWriter::Scope f(w, ret + " " + name + "(" + params + ")");
+      for (std::size_t p = 0; p < parts.size(); ++p) {
+        if (checked) w.line(fmt::format("if (const int s = {}_part{}({})) return s;", name, p, args));
+        else w.line(fmt::format("{}_part{}({});", name, p, args));
+      }
+      if (checked) w.line("return 0;");
+    }
+    std::string out = w.take();
+    if (!out.empty() && out.back() == '\n') out.pop_back();
+    return out;
+  }
+
+  static std::vector<std::string> split_lines(const std::string& text) {
+    std::vector<std::string> out;
+    std::size_t pos = 0;
+    while (pos <= text.size()) {
+      std::size_t eol = text.find('\n', pos);
+      if (eol == std::string::npos) eol = text.size();
+      out.push_back(text.substr(pos, eol - pos));
+      pos = eol + 1;
+    }
+    return out;
+  }
+};
+
+std::string L(const topology::Tree& t, int row, int col) {
+  return fmt::format("L[{}]", t.packed(row, col));
+}
+
+// Names a dof for comments: joint 'knee' or joint 'hip' (coordinate 2 of 3).
+std::string dof_label(const topology::Tree& t, int dof) {
+  const topology::Body& b = t.bodies[t.dof_body[dof]];
+  if (b.nv == 1) return fmt::format("joint '{}'", b.joint_name);
+  return fmt::format("joint '{}' (coordinate {} of {})", b.joint_name, dof - b.v_lem + 1, b.nv);
+}
+
+// Step 1: M = L L^T (or L D L^T), column by column, eq. (25) and (26); the
+// sums run over the descendants of the column only (Lemma 2: every other
+// L[j, i] is zero), and only the rows of ancestors are computed.
+Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc, Method method) {
+  Kernel k;
+  for (int j = 0; j < t.nv; ++j) {
+    Kernel::Unit& u = k.unit();
+    const std::vector<int> anc = t.ancestors(j);
+    const std::vector<int>& dj = desc[j];
+    u.lines.push_back(fmt::format("// column {}: {}; {} descendant(s), {} ancestor row(s)", j,
+                                  dof_label(t, j), dj.size(), anc.size()));
+    u.lines.push_back("{");
+    const std::string in = "  ";
+    const std::string diag = L(t, j, j);
+    if (method == Method::kLLT) {
+      // eq. (25): L[j,j]^2 = M[j,j] - sum_i L[j,i]^2
+      std::vector<Term> sq;
+      for (int i : dj) sq.push_back({L(t, j, i), L(t, j, i)});
+      k.update(u, in, "d", diag, sq, "", "const double ", "sd");
+      u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return not_positive_definite({}, d);",
+                                         diag, j));
+      u.lines.push_back(in + diag + " = std::sqrt(d);");
+      u.lines.push_back(in + fmt::format("Dinv[{}] = 1.0 / {};", j, diag));
+      u.statements += 3;
+      k.ops.sqrt += 1;
+      k.ops.div += 1;
+      // eq. (26): L[k,j] = (M[k,j] - sum_i L[j,i] L[k,i]) / L[j,j]
+      for (int r : anc) {
+        std::vector<Term> terms;
+        for (int i : dj) terms.push_back({L(t, j, i), L(t, r, i)});
+        const std::string target = L(t, r, j);
+        if (terms.size() > kMaxTermsPerStatement) {
+          u.lines.push_back(in + "{");
+          k.update(u, in + "  ", target, target, terms, fmt::format("Dinv[{}]", j));
+          u.lines.push_back(in + "}");
+        } else {
+          k.update(u, in, target, target, terms, fmt::format("Dinv[{}]", j));
+        }
+      }
+    } else {
+      // L D L^T: w_i = L[j,i] D[i]; D[j] = M[j,j] - sum_i w_i L[j,i];
+      // L[k,j] = (M[k,j] - sum_i w_i L[k,i]) / D[j].
+      std::vector<Term> dterms;
+      for (std::size_t n = 0; n < dj.size(); ++n) {
+        const int i = dj[n];
+        u.lines.push_back(in + fmt::format("const double w{} = {} * {};", n, L(t, j, i), L(t, i, i)));
+        ++u.statements;
+        k.ops.mul += 1;
+        dterms.push_back({fmt::format("w{}", n), L(t, j, i)});
+      }
+      k.update(u, in, "d", diag, dterms, "", "const double ", "sd");
+      u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return not_positive_definite({}, d);",
+                                         diag, j));
+      u.lines.push_back(in + diag + " = d;");
+      u.lines.push_back(in + fmt::format("Dinv[{}] = 1.0 / d;", j));
+      u.statements += 3;
+      k.ops.div += 1;
+      for (int r : anc) {
+        std::vector<Term> terms;
+        for (std::size_t n = 0; n < dj.size(); ++n) terms.push_back({fmt::format("w{}", n), L(t, r, dj[n])});
+        const std::string target = L(t, r, j);
+        if (terms.size() > kMaxTermsPerStatement) {
+          u.lines.push_back(in + "{");
+          k.update(u, in + "  ", target, target, terms, fmt::format("Dinv[{}]", j));
+          u.lines.push_back(in + "}");
+        } else {
+          k.update(u, in, target, target, terms, fmt::format("Dinv[{}]", j));
+        }
+      }
+    }
+    u.lines.push_back("}");
+  }
+  return k;
+}
+
+// Step 2: L z = Q by forward substitution; row j sums over the family F(j)
+// only (Remark 2).  For L D L^T the unit-diagonal solve leaves the D scaling
+// to Step 4.
+Kernel step2(const topology::Tree& t, const std::vector<std::vector<int>>& desc, Method method) {
+  Kernel k;
+  for (int j = 0; j < t.nv; ++j) {
+    std::vector<Term> terms;
+    for (int i : desc[j]) terms.push_back({L(t, j, i), fmt::format("z[{}]", i)});
+    if (method == Method::kLDLT && terms.empty()) continue;
+    Kernel::Unit& u = k.unit();
+    u.lines.push_back(fmt::format("// row {}: {}", j, dof_label(t, j)));
+    const std::string zj = fmt::format("z[{}]", j);
+    const std::string scale = method == Method::kLLT ? fmt::format("Dinv[{}]", j) : "";
+    if (terms.size() > kMaxTermsPerStatement) {
+      u.lines.push_back("{");
+      k.update(u, "  ", zj, zj, terms, scale);
+      u.lines.push_back("}");
+    } else {
+      k.update(u, "", zj, zj, terms, scale);
+    }
+  }
+  return k;
+}
+
+// Step 4: L^T qdd = z - y by back substitution, ancestors first; row j sums
+// over the ancestors of j only (Remark 2).  For L D L^T the D^-1 of the
+// forward solve is applied here.
+Kernel step4(const topology::Tree& t, Method method) {
+  Kernel k;
+  for (int j = t.nv - 1; j >= 0; --j) {
+    Kernel::Unit& u = k.unit();
+    u.lines.push_back(fmt::format("// row {}: {}", j, dof_label(t, j)));
+    std::vector<Term> terms;
+    for (int r : t.ancestors(j)) terms.push_back({L(t, r, j), fmt::format("z[{}]", r)});
+    const std::string zj = fmt::format("z[{}]", j);
+    const std::string dinv = fmt::format("Dinv[{}]", j);
+    const bool long_sum = terms.size() > kMaxTermsPerStatement;
+    if (long_sum) u.lines.push_back("{");
+    const std::string in = long_sum ? "  " : "";
+    if (method == Method::kLLT) {
+      k.update(u, in, zj, zj, terms, dinv);
+    } else {
+      k.ops.mul += 1;
+      k.update(u, in, zj, zj + " * " + dinv, terms, "");
+    }
+    if (long_sum) u.lines.push_back("}");
+  }
+  return k;
+}
+
+// ASCII picture of the block pattern of L (rows: Lemma 2 order), for models
+// small enough to read it.
+std::string pattern_comment(const topology::Tree& t) {
+  constexpr int kMaxPictured = 64;
+  if (t.nv > kMaxPictured) return fmt::format("//\n// Pattern of L not drawn (nv = {} > {}).", t.nv, kMaxPictured);
+  std::vector<std::string> rows(t.nv, std::string(t.nv, ' '));
+  for (int c = 0; c < t.nv; ++c) {
+    for (int r = c + 1; r < t.nv; ++r) rows[r][c] = '.';
+    rows[c][c] = 'x';
+    for (int r : t.ancestors(c)) rows[r][c] = 'x';
+  }
+  std::string out = "//\n// Pattern of L (x: computed, .: structurally zero, never touched):\n";
+  for (int r = 0; r < t.nv; ++r) {
+    std::string row = rows[r];
+    row.erase(row.find_last_not_of(' ') + 1);
+    out += fmt::format("//   {:>4} {}  {}\n", r, row, t.bodies[t.dof_body[r]].joint_name);
+  }
+  out.pop_back();
+  return out;
+}
+
+std::string body_tables(const topology::Tree& t) {
+  std::string out;
+  for (std::size_t b = 0; b < t.bodies.size(); ++b) {
+    const topology::Body& body = t.bodies[b];
+    const Eigen::Matrix3d& R = body.X_PJ.R;
+    const Eigen::Matrix3d& I = body.inertial.I_com;
+    out += fmt::format("// {}: joint '{}' ({}), parent {}\n", b, body.joint_name,
+                       ir::joint_type_name(body.type),
+                       body.parent_lem >= 0 ? std::to_string(body.parent_lem) : "base");
+    out += fmt::format(
+        "{{\"{}\", {}, {}, {}, {}, {}, {},\n"
+        " {{{}, {}, {}, {}, {}, {}, {}, {}, {}}},\n"
+        " {}, {}, {}, {},\n"
+        " {}, {}, {{{}, {}, {}, {}, {}, {}}}, {}}},\n",
+        body.joint_name, joint_kind(body.type), body.parent_lem, body.q_user, body.v_user, body.v_lem,
+        body.nv, num(R(0, 0)), num(R(0, 1)), num(R(0, 2)), num(R(1, 0)), num(R(1, 1)), num(R(1, 2)),
+        num(R(2, 0)), num(R(2, 1)), num(R(2, 2)), vec(body.X_PJ.p), vec(body.axis), vec(body.e1),
+        vec(body.e2), num(body.inertial.mass), vec(body.inertial.com), num(I(0, 0)), num(I(1, 1)),
+        num(I(2, 2)), num(I(0, 1)), num(I(0, 2)), num(I(1, 2)), num(body.damping));
+  }
+  out.pop_back();
+  return out;
+}
+
+}  // namespace
+
+std::string sanitize_identifier(std::string_view name) {
+  static const std::string_view kKeywords[] = {
+      "alignas", "alignof", "and", "and_eq", "asm", "auto", "bitand", "bitor", "bool", "break",
+      "case", "catch", "char", "char8_t", "char16_t", "char32_t", "class", "compl", "concept",
+      "const", "consteval", "constexpr", "constinit", "const_cast", "continue", "co_await",
+      "co_return", "co_yield", "decltype", "default", "delete", "do", "double", "dynamic_cast",
+      "else", "enum", "explicit", "export", "extern", "false", "float", "for", "friend", "goto",
+      "if", "inline", "int", "long", "mutable", "namespace", "new", "noexcept", "not", "not_eq",
+      "nullptr", "operator", "or", "or_eq", "private", "protected", "public", "register",
+      "reinterpret_cast", "requires", "return", "short", "signed", "sizeof", "static",
+      "static_assert", "static_cast", "struct", "switch", "template", "this", "thread_local",
+      "throw", "true", "try", "typedef", "typeid", "typename", "union", "unsigned", "using",
+      "virtual", "void", "volatile", "wchar_t", "while", "xor", "xor_eq", "std", "jr", "final",
+      "override", "import", "module"};
+  std::string out;
+  for (char c : name) {
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_';
+    out += ok ? c : '_';
+  }
+  if (out.empty() || (out[0] >= '0' && out[0] <= '9')) out = "_" + out;
+  if (std::find(std::begin(kKeywords), std::end(kKeywords), out) != std::end(kKeywords)) out += "_";
+  return out;
+}
+
+Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Options& options) {
+  if (t.nv == 0)
+    throw Error(ir::SourceLocation{robot.source_file, 0}, "robot", robot.name,
+                "has no moving joints: there are no equations of motion to solve");
+  const int nb = static_cast<int>(t.bodies.size());
+  const std::vector<std::vector<int>> desc = t.descendants();
+
+  const Kernel k1 = step1(t, desc, options.method);
+  const Kernel k2 = step2(t, desc, options.method);
+  const Kernel k4 = step4(t, options.method);
+
+  const bool gravity = !options.gravity.isZero(0.0);
+  bool damping = false;
+  for (const topology::Body& b : t.bodies) damping = damping || b.damping != 0.0;
+
+  TemplateValues v;
+  v["version"] = JRGEN_VERSION;
+  v["source"] = options.source_name + (options.cuts_name.empty() ? "" : " + " + options.cuts_name);
+  v["robot"] = robot.name;
+  v["ns"] = options.name_space;
+  v["nq"] = std::to_string(t.nq);
+  v["nv"] = std::to_string(t.nv);
+  v["nc"] = "0";
+  v["njoints"] = std::to_string(nb);
+
+  Solver solver;
+  solver.header = render_template("solver.hpp.tmpl", template_text("solver.hpp.tmpl"), v);
+
+  v.erase("nq");
+  v.erase("nc");
+  v.erase("njoints");
+  v["nb"] = std::to_string(nb);
+  v["nnz"] = std::to_string(t.nnz());
+  v["nv_plus_1"] = std::to_string(t.nv + 1);
+  v["header"] = options.header_name;
+  v["method"] = options.method == Method::kLLT ? "L L^T (Cholesky)" : "L D L^T (no square roots)";
+  v["summary"] = fmt::format("tree, nq = {}, nv = {}, no constraints.", t.nq, t.nv);
+  v["pattern"] = pattern_comment(t);
+
+  std::string names, q_index, v_index;
+  std::vector<int> dof_joint(t.nv, 0);
+  for (int ju = 0; ju < nb; ++ju) {
+    const topology::Body& b = t.bodies[t.body_of_user_joint[ju]];
+    names += fmt::format("\"{}\",\n", b.joint_name);
+    q_index += (ju ? ", " : "") + std::to_string(b.q_user);
+    v_index += (ju ? ", " : "") + std::to_string(b.v_user);
+    for (int k = 0; k < b.nv; ++k) dof_joint[b.v_user + k] = ju;
+  }
+  names.pop_back();
+  v["joint_names"] = names;
+  v["joint_q_index"] = q_index;
+  v["joint_v_index"] = v_index;
+  v["bodies"] = body_tables(t);
+  v["dof_parent"] = join_ints(t.dof_parent);
+  v["dof_user"] = join_ints(t.dof_user);
+  v["col_start"] = join_ints(t.M_col_start);
+  v["dof_joint"] = join_ints(dof_joint);
+  v["model_init"] = fmt::format("{}, {}, {}, kBodies, kDofParent, kDofUser, kMColStart, {{{}, {}, {}}}", nb,
+                                t.nq, t.nv, num(options.gravity[0]), num(options.gravity[1]),
+                                num(options.gravity[2]));
+  v["gravity_flag"] = gravity ? "true" : "false";
+  v["damping_flag"] = damping ? "true" : "false";
+  std::string bias = "Coriolis and centrifugal terms";
+  if (gravity) bias += ", gravity";
+  if (damping) bias += ", joint damping";
+  v["bias_terms"] = bias;
+
+  const std::string method_note =
+      options.method == Method::kLLT ? "M = L L^T" : "M = L D L^T, D on the diagonal of L";
+  v["step1"] = k1.functions(
+      "step1_factor", "double* L, double* Dinv", "L, Dinv", true,
+      fmt::format("---- Step 1: factor {} in place (packed), eq. (25)-(26). ----\n"
+                  "Lemma 2: no fill-in; column j reads only rows of its descendants\n"
+                  "and writes only rows of its ancestors. Dinv[j] = 1 / pivot j.\n"
+                  "Ops: {} add, {} mul, {} div, {} sqrt.",
+                  method_note, k1.ops.add, k1.ops.mul, k1.ops.div, k1.ops.sqrt));
+  // With L D L^T the forward solve has a unit diagonal and needs no Dinv.
+  const bool ldlt = options.method == Method::kLDLT;
+  v["step2_args"] = ldlt ? "g_L, g_z" : "g_L, g_Dinv, g_z";
+  v["step2"] = k2.functions(
+      "step2_forward", ldlt ? "const double* L, double* z" : "const double* L, const double* Dinv, double* z",
+      ldlt ? "L, z" : "L, Dinv, z", false,
+      fmt::format("---- Step 2: solve L z = Q (forward substitution), Remark 2: ----\n"
+                  "row j sums over the family F(j) only.{}\n"
+                  "Ops: {} add, {} mul, {} div.",
+                  options.method == Method::kLDLT ? " Unit diagonal; D^-1 is applied in Step 4." : "",
+                  k2.ops.add, k2.ops.mul, k2.ops.div));
+  v["step4"] = k4.functions(
+      "step4_backward", "const double* L, const double* Dinv, double* z", "L, Dinv, z", false,
+      fmt::format("---- Step 4: solve L^T qdd = z (back substitution), Remark 2: ----\n"
+                  "row j sums over the ancestors of j only.\n"
+                  "Ops: {} add, {} mul, {} div.",
+                  k4.ops.add, k4.ops.mul, k4.ops.div));
+
+  solver.source = render_template("solver.cpp.tmpl", template_text("solver.cpp.tmpl"), v);
+  solver.ops = {{"1", k1.ops}, {"2", k2.ops}, {"4", k4.ops}};
+  return solver;
+}
+
+}  // namespace jrgen::emit

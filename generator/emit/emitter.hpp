@@ -1,0 +1,58 @@
+// Emit stage: topology::Tree -> the text of OUT.hpp and OUT.cpp.
+//
+// Steps 1, 2 and 4 of the algorithm of Section 4.3 are written out as
+// straight-line code over the packed factor, touching only structurally
+// non-zero entries (Lemma 2, Remark 2); the kinematics come from the runtime.
+#pragma once
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "ir/ir.hpp"
+#include "topology/topology.hpp"
+
+namespace jrgen::emit {
+
+enum class Method { kLLT, kLDLT };
+
+struct Options {
+  std::string name_space;      ///< C++ namespace of the generated API
+  Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
+  Method method = Method::kLLT;
+  std::string source_name;     ///< URDF base name, for the banner
+  std::string cuts_name;       ///< cuts file base name or empty
+  std::string header_name;     ///< base name of OUT.hpp, as included by OUT.cpp
+};
+
+/// Floating-point operations of emitted code, counted as written.
+struct OpCount {
+  long long add = 0, mul = 0, div = 0, sqrt = 0;
+  OpCount& operator+=(const OpCount& o) {
+    add += o.add;
+    mul += o.mul;
+    div += o.div;
+    sqrt += o.sqrt;
+    return *this;
+  }
+};
+
+struct StepOps {
+  std::string step;  ///< "1", "2", "3.1", ..., "4"
+  OpCount ops;
+};
+
+struct Solver {
+  std::string header;
+  std::string source;
+  std::vector<StepOps> ops;  ///< per step of Section 4.3, in order
+};
+
+/// Throws jrgen::Error for models the generated code cannot serve.
+Solver emit_solver(const ir::Robot& robot, const topology::Tree& tree, const Options& options);
+
+/// One documented rule (README): every character that is not [A-Za-z0-9_]
+/// becomes '_', a leading digit gets a '_' prefix, C++ keywords get a '_' suffix.
+std::string sanitize_identifier(std::string_view name);
+
+}  // namespace jrgen::emit

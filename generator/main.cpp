@@ -1,0 +1,201 @@
+// jrgen command line (INTERFACE.md section 1).  Parses options, runs the
+// stages urdf -> topology -> emit, and reports any error as one line.
+#include <fmt/format.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "emit/emitter.hpp"
+#include "emit/report.hpp"
+#include "ir/error.hpp"
+#include "topology/topology.hpp"
+#include "urdf/urdf_reader.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr const char* kUsage =
+    "usage: jrgen MODEL.urdf [--cuts CUTS.xml] -o OUT.cpp [--namespace NAME]\n"
+    "             [--gravity GX,GY,GZ] [--method llt|ldlt] [--report OPS.md]\n"
+    "             [--strict-constraints]\n";
+
+constexpr const char* kHelp =
+    "Generates a loop-free C++ solver of the equations of motion of a mechanism\n"
+    "(Negrut, Serban & Potra 1997): OUT.cpp and OUT.hpp.\n"
+    "\n"
+    "  MODEL.urdf            the spanning tree (URDF; type=\"ball\" joints and\n"
+    "                        <loop_joint> elements accepted)\n"
+    "  --cuts CUTS.xml       further cut joints (<loop_joints> root)\n"
+    "  -o OUT.cpp            output; OUT.hpp is written beside it\n"
+    "  --namespace NAME      C++ namespace (default: the robot name)\n"
+    "  --gravity GX,GY,GZ    gravity in the world frame (default 0,0,-9.81;\n"
+    "                        0,0,0 removes gravity code)\n"
+    "  --method llt|ldlt     factorization: Cholesky or square-root-free L D L^T\n"
+    "  --report OPS.md       write the operation counts of the emitted code\n"
+    "  --strict-constraints  redundant constraint rows are an error\n"
+    "  --help, --version\n";
+
+struct Arguments {
+  std::string model;
+  std::string cuts;
+  std::string output;
+  std::string name_space;
+  std::string report;
+  Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
+  jrgen::emit::Method method = jrgen::emit::Method::kLLT;
+  bool strict_constraints = false;
+};
+
+Eigen::Vector3d parse_gravity(const std::string& text) {
+  Eigen::Vector3d g;
+  std::size_t pos = 0;
+  for (int k = 0; k < 3; ++k) {
+    const std::size_t end = text.find(',', pos);
+    if ((k < 2) != (end != std::string::npos))
+      throw jrgen::Error("--gravity: expected three numbers GX,GY,GZ, got '" + text + "'");
+    const std::string part = text.substr(pos, end == std::string::npos ? std::string::npos : end - pos);
+    std::size_t used = 0;
+    try {
+      g[k] = std::stod(part, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != part.size() || !std::isfinite(g[k]))
+      throw jrgen::Error("--gravity: '" + part + "' is not a finite number");
+    pos = end + 1;
+  }
+  return g;
+}
+
+Arguments parse_arguments(int argc, char** argv) {
+  Arguments args;
+  auto value = [&](int& i) -> std::string {
+    if (i + 1 >= argc) throw jrgen::Error(std::string(argv[i]) + ": missing value");
+    return argv[++i];
+  };
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "-o" || a == "--output") args.output = value(i);
+    else if (a == "--cuts") args.cuts = value(i);
+    else if (a == "--namespace") args.name_space = value(i);
+    else if (a == "--gravity") args.gravity = parse_gravity(value(i));
+    else if (a == "--report") args.report = value(i);
+    else if (a == "--strict-constraints") args.strict_constraints = true;
+    else if (a == "--method") {
+      const std::string m = value(i);
+      if (m == "llt") args.method = jrgen::emit::Method::kLLT;
+      else if (m == "ldlt") args.method = jrgen::emit::Method::kLDLT;
+      else throw jrgen::Error("--method: expected llt or ldlt, got '" + m + "'");
+    } else if (!a.empty() && a[0] == '-') {
+      throw jrgen::Error("unknown option '" + a + "' (see jrgen --help)");
+    } else if (args.model.empty()) {
+      args.model = a;
+    } else {
+      throw jrgen::Error("more than one model given: '" + args.model + "' and '" + a + "'");
+    }
+  }
+  if (args.model.empty()) throw jrgen::Error("missing MODEL.urdf (see jrgen --help)");
+  if (args.output.empty()) throw jrgen::Error("missing -o OUT.cpp (see jrgen --help)");
+  if (fs::path(args.output).extension() != ".cpp")
+    throw jrgen::Error("-o " + args.output + ": the output must end in .cpp (OUT.hpp is written beside it)");
+  if (!args.name_space.empty() && jrgen::emit::sanitize_identifier(args.name_space) != args.name_space)
+    throw jrgen::Error("--namespace '" + args.name_space + "' is not a C++ identifier");
+  return args;
+}
+
+// Writes all files or none: each goes to a temporary file in its folder first,
+// then all are renamed into place.
+class AtomicOutput {
+ public:
+  void add(const fs::path& path, const std::string& text) {
+    fs::path tmp = path;
+    tmp += ".jrgen-tmp";
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw jrgen::Error(path.string() + ": cannot write: " + std::strerror(errno));
+    pending_.push_back({tmp, path});
+    out << text;
+    out.close();
+    if (!out) throw jrgen::Error(path.string() + ": cannot write: " + std::strerror(errno));
+  }
+  void commit() {
+    for (const auto& [tmp, path] : pending_) {
+      std::error_code ec;
+      fs::rename(tmp, path, ec);
+      if (ec) throw jrgen::Error(path.string() + ": cannot write: " + ec.message());
+    }
+    pending_.clear();
+  }
+  ~AtomicOutput() {
+    for (const auto& [tmp, path] : pending_) {
+      std::error_code ec;
+      fs::remove(tmp, ec);
+    }
+  }
+
+ private:
+  std::vector<std::pair<fs::path, fs::path>> pending_;
+};
+
+int run(const Arguments& args) {
+  jrgen::ir::Robot robot = jrgen::urdf::read_robot(args.model);
+  if (!args.cuts.empty()) jrgen::urdf::read_cuts(args.cuts, robot);
+  if (!robot.cuts.empty()) {
+    const jrgen::ir::CutJoint& cut = robot.cuts.front();
+    throw jrgen::Error(cut.where, "loop_joint", cut.name,
+                       "closed loops are not supported by this version of jrgen yet");
+  }
+  const jrgen::topology::Tree tree = jrgen::topology::build_tree(robot);
+
+  const fs::path cpp_path(args.output);
+  fs::path hpp_path = cpp_path;
+  hpp_path.replace_extension(".hpp");
+  jrgen::emit::Options options;
+  options.name_space = args.name_space.empty() ? jrgen::emit::sanitize_identifier(robot.name) : args.name_space;
+  options.gravity = args.gravity;
+  options.method = args.method;
+  options.source_name = fs::path(args.model).filename().string();
+  options.cuts_name = args.cuts.empty() ? "" : fs::path(args.cuts).filename().string();
+  options.header_name = hpp_path.filename().string();
+  const jrgen::emit::Solver solver = jrgen::emit::emit_solver(robot, tree, options);
+
+  AtomicOutput out;
+  out.add(cpp_path, solver.source);
+  out.add(hpp_path, solver.header);
+  if (!args.report.empty()) out.add(args.report, jrgen::emit::operation_report(robot, tree, solver));
+  out.commit();
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--help" || a == "-h") {
+      std::cout << kUsage << '\n' << kHelp;
+      return 0;
+    }
+    if (a == "--version") {
+      std::cout << "jrgen " << JRGEN_VERSION << '\n';
+      return 0;
+    }
+  }
+  try {
+    return run(parse_arguments(argc, argv));
+  } catch (const jrgen::Error& e) {
+    std::cerr << "jrgen: error: " << e.what() << '\n';
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "jrgen: internal error: " << e.what() << '\n';
+    return 2;
+  }
+}
