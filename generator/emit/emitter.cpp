@@ -54,6 +54,34 @@ const char* joint_kind(ir::JointType type) {
   return "?";
 }
 
+// A URDF name inside a C++ string literal: quotes, backslashes and control
+// characters escaped (octal), so any name compiles.
+std::string c_string(std::string_view name) {
+  std::string out = "\"";
+  for (unsigned char c : name) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += static_cast<char>(c);
+    } else if (c < 0x20 || c == 0x7f) {
+      out += fmt::format("\\{:03o}", c);
+    } else {
+      out += static_cast<char>(c);
+    }
+  }
+  return out + "\"";
+}
+
+// A URDF name inside a // comment: control characters become '?' and
+// backslashes '/', so a name can never end or continue the comment line.
+std::string comment_text(std::string_view name) {
+  std::string out(name);
+  for (char& c : out) {
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = '?';
+    if (c == '\\') c = '/';
+  }
+  return out;
+}
+
 // A product a * b of two named scalars.
 struct Term {
   std::string a, b;
@@ -195,8 +223,8 @@ std::string L(const topology::Tree& t, int row, int col) {
 // Names a dof for comments: joint 'knee' or joint 'hip' (coordinate 2 of 3).
 std::string dof_label(const topology::Tree& t, int dof) {
   const topology::Body& b = t.bodies[t.dof_body[dof]];
-  if (b.nv == 1) return fmt::format("joint '{}'", b.joint_name);
-  return fmt::format("joint '{}' (coordinate {} of {})", b.joint_name, dof - b.v_lem + 1, b.nv);
+  if (b.nv == 1) return fmt::format("joint '{}'", comment_text(b.joint_name));
+  return fmt::format("joint '{}' (coordinate {} of {})", comment_text(b.joint_name), dof - b.v_lem + 1, b.nv);
 }
 
 // Step 1: M = L L^T (or L D L^T), column by column, eq. (25) and (26); the
@@ -339,7 +367,7 @@ std::string pattern_comment(const topology::Tree& t) {
   for (int r = 0; r < t.nv; ++r) {
     std::string row = rows[r];
     row.erase(row.find_last_not_of(' ') + 1);
-    out += fmt::format("//   {:>4} {}  {}\n", r, row, t.bodies[t.dof_body[r]].joint_name);
+    out += fmt::format("//   {:>4} {}  {}\n", r, row, comment_text(t.bodies[t.dof_body[r]].joint_name));
   }
   out.pop_back();
   return out;
@@ -351,15 +379,15 @@ std::string body_tables(const topology::Tree& t) {
     const topology::Body& body = t.bodies[b];
     const Eigen::Matrix3d& R = body.X_PJ.R;
     const Eigen::Matrix3d& I = body.inertial.I_com;
-    out += fmt::format("// {}: joint '{}' ({}), parent {}\n", b, body.joint_name,
+    out += fmt::format("// {}: joint '{}' ({}), parent {}\n", b, comment_text(body.joint_name),
                        ir::joint_type_name(body.type),
                        body.parent_lem >= 0 ? std::to_string(body.parent_lem) : "base");
     out += fmt::format(
-        "{{\"{}\", {}, {}, {}, {}, {}, {},\n"
+        "{{{}, {}, {}, {}, {}, {}, {},\n"
         " {{{}, {}, {}, {}, {}, {}, {}, {}, {}}},\n"
         " {}, {}, {}, {},\n"
         " {}, {}, {{{}, {}, {}, {}, {}, {}}}, {}}},\n",
-        body.joint_name, joint_kind(body.type), body.parent_lem, body.q_user, body.v_user, body.v_lem,
+        c_string(body.joint_name), joint_kind(body.type), body.parent_lem, body.q_user, body.v_user, body.v_lem,
         body.nv, num(R(0, 0)), num(R(0, 1)), num(R(0, 2)), num(R(1, 0)), num(R(1, 1)), num(R(1, 2)),
         num(R(2, 0)), num(R(2, 1)), num(R(2, 2)), vec(body.X_PJ.p), vec(body.axis), vec(body.e1),
         vec(body.e2), num(body.inertial.mass), vec(body.inertial.com), num(I(0, 0)), num(I(1, 1)),
@@ -438,7 +466,7 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
   std::vector<int> dof_joint(t.nv, 0);
   for (int ju = 0; ju < nb; ++ju) {
     const topology::Body& b = t.bodies[t.body_of_user_joint[ju]];
-    names += fmt::format("\"{}\",\n", b.joint_name);
+    names += c_string(b.joint_name) + ",\n";
     q_index += (ju ? ", " : "") + std::to_string(b.q_user);
     v_index += (ju ? ", " : "") + std::to_string(b.v_user);
     for (int k = 0; k < b.nv; ++k) dof_joint[b.v_user + k] = ju;
