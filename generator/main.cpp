@@ -4,6 +4,7 @@
 
 #include <cerrno>
 #include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -13,6 +14,10 @@
 #include <string>
 #include <vector>
 
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "analysis/constraints.hpp"
 #include "emit/emitter.hpp"
 #include "emit/report.hpp"
 #include "ir/error.hpp"
@@ -112,21 +117,35 @@ Arguments parse_arguments(int argc, char** argv) {
   return args;
 }
 
-// Writes all files or none: each goes to a temporary file in its folder first,
-// then all are renamed into place.
+// Writes all files or none: each goes to a fresh temporary file in its
+// folder first (mkstemp), every target is checked, then all are renamed into
+// place.  A failure before the renames leaves no trace.
 class AtomicOutput {
  public:
   void add(const fs::path& path, const std::string& text) {
-    fs::path tmp = path;
-    tmp += ".jrgen-tmp";
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw jrgen::Error(path.string() + ": cannot write: " + std::strerror(errno));
-    pending_.push_back({tmp, path});
-    out << text;
-    out.close();
-    if (!out) throw jrgen::Error(path.string() + ": cannot write: " + std::strerror(errno));
+    std::error_code ec;
+    if (fs::is_directory(path, ec))
+      throw jrgen::Error(path.string() + ": cannot write: Is a directory");
+    std::string tmpl = path.string() + ".jrgen-tmp-XXXXXX";
+    const int fd = ::mkstemp(tmpl.data());
+    if (fd < 0) throw jrgen::Error(path.string() + ": cannot write: " + std::strerror(errno));
+    pending_.push_back({fs::path(tmpl), path});
+    std::FILE* f = ::fdopen(fd, "wb");
+    if (f == nullptr) {
+      ::close(fd);
+      throw jrgen::Error(path.string() + ": cannot write: " + std::strerror(errno));
+    }
+    const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size();
+    const int saved = errno;
+    if (std::fclose(f) != 0 || !ok)
+      throw jrgen::Error(path.string() + ": cannot write: " + std::strerror(ok ? errno : saved));
+    ::chmod(tmpl.c_str(), 0644);  // mkstemp makes 0600; outputs are ordinary files
   }
   void commit() {
+    for (const auto& [tmp, path] : pending_) {
+      std::error_code ec;
+      if (fs::is_directory(path, ec)) throw jrgen::Error(path.string() + ": cannot write: Is a directory");
+    }
     for (const auto& [tmp, path] : pending_) {
       std::error_code ec;
       fs::rename(tmp, path, ec);
@@ -148,12 +167,10 @@ class AtomicOutput {
 int run(const Arguments& args) {
   jrgen::ir::Robot robot = jrgen::urdf::read_robot(args.model);
   if (!args.cuts.empty()) jrgen::urdf::read_cuts(args.cuts, robot);
-  if (!robot.cuts.empty()) {
-    const jrgen::ir::CutJoint& cut = robot.cuts.front();
-    throw jrgen::Error(cut.where, "loop_joint", cut.name,
-                       "closed loops are not supported by this version of jrgen yet");
-  }
-  const jrgen::topology::Tree tree = jrgen::topology::build_tree(robot);
+  jrgen::topology::Tree tree = jrgen::topology::build_tree(robot);
+  // Closed loops: default distances, assembly, redundant rows (notes on stderr).
+  const jrgen::analysis::ConstraintAnalysis analysis =
+      jrgen::analysis::analyze_constraints(robot, tree, args.strict_constraints);
 
   const fs::path cpp_path(args.output);
   fs::path hpp_path = cpp_path;
@@ -172,6 +189,8 @@ int run(const Arguments& args) {
   out.add(hpp_path, solver.header);
   if (!args.report.empty()) out.add(args.report, jrgen::emit::operation_report(robot, tree, solver));
   out.commit();
+  // Notes only after success: a failing run prints exactly one line.
+  for (const std::string& note : analysis.notes) std::cerr << "jrgen: note: " << note << '\n';
   return 0;
 }
 
