@@ -8,7 +8,16 @@
 #
 # Needs JRGEN_EXECUTABLE (the jrgen program, a path or generator expression)
 # and the target jrgen::runtime, both set by find_package(jrgen) or by
-# jrgen's own CMakeLists.txt.
+# jrgen's own CMakeLists.txt before including this file.  The program is
+# remembered in a global property, so add_jr_solver() also works from a
+# project that pulled jrgen in with add_subdirectory() (where jrgen's
+# directory variables are not visible); a JRGEN_EXECUTABLE variable visible
+# at the call still takes precedence.
+if(NOT JRGEN_EXECUTABLE)
+  message(FATAL_ERROR "jrgen_solver.cmake: set JRGEN_EXECUTABLE before including this file")
+endif()
+set_property(GLOBAL PROPERTY JRGEN_EXECUTABLE "${JRGEN_EXECUTABLE}")
+
 function(add_jr_solver)
   cmake_parse_arguments(ARG "" "TARGET;URDF;CUTS;NAMESPACE" "OPTIONS" ${ARGN})
   if(NOT ARG_TARGET OR NOT ARG_URDF)
@@ -17,12 +26,26 @@ function(add_jr_solver)
   if(ARG_UNPARSED_ARGUMENTS)
     message(FATAL_ERROR "add_jr_solver: unknown arguments: ${ARG_UNPARSED_ARGUMENTS}")
   endif()
+  list(REMOVE_ITEM ARG_KEYWORDS_MISSING_VALUES OPTIONS)  # an empty OPTIONS list is fine
+  if(ARG_KEYWORDS_MISSING_VALUES)
+    message(FATAL_ERROR "add_jr_solver: no value given for ${ARG_KEYWORDS_MISSING_VALUES}")
+  endif()
+  set(exe "${JRGEN_EXECUTABLE}")
+  if(NOT exe)
+    get_property(exe GLOBAL PROPERTY JRGEN_EXECUTABLE)
+  endif()
   get_filename_component(urdf "${ARG_URDF}" ABSOLUTE BASE_DIR "${CMAKE_CURRENT_SOURCE_DIR}")
   set(out_dir "${CMAKE_CURRENT_BINARY_DIR}/jrgen/${ARG_TARGET}")
   set(out_cpp "${out_dir}/${ARG_TARGET}.cpp")
   set(out_hpp "${out_dir}/${ARG_TARGET}.hpp")
-  set(cmd "${JRGEN_EXECUTABLE}" "${urdf}" -o "${out_cpp}")
-  set(deps "${urdf}")
+  set(cmd "${exe}" "${urdf}" -o "${out_cpp}")
+  # The program's file is a dependency, so a rebuilt or reinstalled jrgen
+  # regenerates the solver.  It is named as a file ($<TARGET_FILE:...>), not
+  # as a target: a target-level dependency alone does not make the rule depend
+  # on the program's file.  In jrgen's own tree the generator expression on
+  # the command line also gives the target-level dependency that builds jrgen
+  # first.
+  set(deps "${urdf}" "${exe}")
   if(ARG_CUTS)
     get_filename_component(cuts "${ARG_CUTS}" ABSOLUTE BASE_DIR "${CMAKE_CURRENT_SOURCE_DIR}")
     list(APPEND cmd --cuts "${cuts}")
@@ -32,11 +55,6 @@ function(add_jr_solver)
     list(APPEND cmd --namespace "${ARG_NAMESPACE}")
   endif()
   list(APPEND cmd ${ARG_OPTIONS})
-  if(TARGET jrgen)
-    list(APPEND deps jrgen)          # building jrgen itself: rerun when it changes
-  elseif(TARGET jrgen::jrgen)
-    list(APPEND deps jrgen::jrgen)   # installed package
-  endif()
   file(MAKE_DIRECTORY "${out_dir}")
   add_custom_command(
     OUTPUT "${out_cpp}" "${out_hpp}"
@@ -48,5 +66,8 @@ function(add_jr_solver)
   target_include_directories(${ARG_TARGET} PUBLIC "${out_dir}")
   target_link_libraries(${ARG_TARGET} PUBLIC jrgen::runtime)
   target_compile_features(${ARG_TARGET} PUBLIC cxx_std_17)
+  # The generated code checks every pivot before std::sqrt and never reads
+  # errno: let the compiler emit the bare square-root instruction.
+  target_compile_options(${ARG_TARGET} PRIVATE $<$<CXX_COMPILER_ID:GNU,Clang>:-fno-math-errno>)
   set_target_properties(${ARG_TARGET} PROPERTIES POSITION_INDEPENDENT_CODE ON)
 endfunction()
