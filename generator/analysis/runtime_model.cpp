@@ -42,11 +42,59 @@ jr::BodyModel body_model(const topology::Body& body) {
   return bm;
 }
 
+namespace {
+jr::CutKind cut_kind(ir::CutType type) {
+  switch (type) {
+    case ir::CutType::Spherical: return jr::CutKind::kSpherical;
+    case ir::CutType::Revolute: return jr::CutKind::kRevolute;
+    case ir::CutType::Prismatic: return jr::CutKind::kPrismatic;
+    case ir::CutType::Cylindrical: return jr::CutKind::kCylindrical;
+    case ir::CutType::Universal: return jr::CutKind::kUniversal;
+    case ir::CutType::Fixed: return jr::CutKind::kFixed;
+    case ir::CutType::Distance: return jr::CutKind::kDistance;
+  }
+  return jr::CutKind::kSpherical;
+}
+
+void copy_pose(const ir::Pose& X, double* R, double* p) {
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) R[3 * r + c] = X.R(r, c);
+  copy3(X.p, p);
+}
+}  // namespace
+
+std::vector<jr::CutModel> cut_models(const topology::Tree& tree) {
+  std::vector<jr::CutModel> out;
+  std::int32_t first_row = 0, phiq_start = 0;
+  for (const topology::Cut& c : tree.cuts) {
+    jr::CutModel cm{};
+    cm.name = c.name.c_str();
+    cm.kind = cut_kind(c.type);
+    cm.body_k = c.body_k;
+    cm.body_l = c.body_l;
+    copy_pose(c.X_BkF, cm.R_k, cm.p_k);
+    copy_pose(c.X_BlF, cm.R_l, cm.p_l);
+    copy3(c.axis, cm.axis);
+    copy3(c.child_axis, cm.child_axis);
+    cm.distance = c.distance;
+    for (int r : c.kept_rows) cm.row_mask |= 1 << r;
+    cm.first_row = first_row;
+    cm.phiq_start = phiq_start;
+    cm.num_dofs = static_cast<std::int32_t>(c.dofs.size());
+    first_row += static_cast<std::int32_t>(c.kept_rows.size());
+    phiq_start += static_cast<std::int32_t>(c.kept_rows.size() * c.dofs.size());
+    out.push_back(cm);
+  }
+  return out;
+}
+
 RuntimeModel::RuntimeModel(const topology::Tree& tree, const Eigen::Vector3d& gravity)
     : dof_parent_(tree.dof_parent.begin(), tree.dof_parent.end()),
       dof_user_(tree.dof_user.begin(), tree.dof_user.end()),
       col_start_(tree.M_col_start.begin(), tree.M_col_start.end()),
-      workspace_(new jr::BodyState[tree.bodies.size()]) {
+      cuts_(cut_models(tree)),
+      workspace_(new jr::BodyState[tree.bodies.size()]),
+      motion_(new jr::BodyMotion[tree.bodies.size()]) {
   for (const topology::Body& b : tree.bodies) bodies_.push_back(body_model(b));
   model_.nb = static_cast<std::int32_t>(bodies_.size());
   model_.nq = tree.nq;
@@ -56,6 +104,15 @@ RuntimeModel::RuntimeModel(const topology::Tree& tree, const Eigen::Vector3d& gr
   model_.dof_user = dof_user_.data();
   model_.M_col_start = col_start_.data();
   for (int k = 0; k < 3; ++k) model_.gravity[k] = gravity[k];
+  constraints_.ncuts = static_cast<std::int32_t>(cuts_.size());
+  constraints_.nc = tree.nc();
+  constraints_.phiq_nnz = 0;
+  for (const jr::CutModel& c : cuts_) {
+    int kept = 0;
+    for (int r = 0; r < 6; ++r) kept += c.row_mask >> r & 1;
+    constraints_.phiq_nnz += kept * c.num_dofs;
+  }
+  constraints_.cuts = cuts_.data();
 }
 
 }  // namespace jrgen::analysis

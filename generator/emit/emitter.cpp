@@ -6,40 +6,15 @@
 #include <array>
 
 #include "emit/code_writer.hpp"
+#include "emit/format.hpp"
+#include "emit/kernel.hpp"
+#include "emit/loops.hpp"
 #include "emit/template.hpp"
 #include "ir/error.hpp"
 
 namespace jrgen::emit {
 
 namespace {
-
-// Functions longer than this many statements are split, so that the compiler
-// never sees one giant basic block (compile time grows faster than linearly).
-constexpr std::size_t kMaxStatementsPerFunction = 4000;
-// Sums of more products than this are split into partial sums.
-constexpr std::size_t kMaxTermsPerStatement = 8;
-
-// Round-trip formatting of model constants (shortest exact representation).
-std::string num(double x) {
-  if (x == 0.0) return "0.0";
-  std::string s = fmt::format("{}", x);
-  if (s.find_first_of(".eEn") == std::string::npos) s += ".0";
-  return s;
-}
-
-std::string vec(const Eigen::Vector3d& v) {
-  return fmt::format("{{{}, {}, {}}}", num(v[0]), num(v[1]), num(v[2]));
-}
-
-template <typename Range>
-std::string join_ints(const Range& values) {
-  std::string out;
-  for (const auto& v : values) {
-    if (!out.empty()) out += ", ";
-    out += std::to_string(v);
-  }
-  return out;
-}
 
 const char* joint_kind(ir::JointType type) {
   switch (type) {
@@ -52,179 +27,6 @@ const char* joint_kind(ir::JointType type) {
     case ir::JointType::Fixed: break;
   }
   return "?";
-}
-
-// A URDF name inside a C++ string literal: quotes, backslashes and control
-// characters escaped (octal), so any name compiles.
-std::string c_string(std::string_view name) {
-  std::string out = "\"";
-  for (unsigned char c : name) {
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += static_cast<char>(c);
-    } else if (c < 0x20 || c == 0x7f) {
-      out += fmt::format("\\{:03o}", c);
-    } else {
-      out += static_cast<char>(c);
-    }
-  }
-  return out + "\"";
-}
-
-// A URDF name inside a // comment: control characters become '?' and
-// backslashes '/', so a name can never end or continue the comment line.
-std::string comment_text(std::string_view name) {
-  std::string out(name);
-  for (char& c : out) {
-    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = '?';
-    if (c == '\\') c = '/';
-  }
-  return out;
-}
-
-// A product a * b of two named scalars.
-struct Term {
-  std::string a, b;
-};
-
-// A straight-line kernel under construction: a list of indivisible units
-// (one per column or row), each a few statements, with an operation count.
-struct Kernel {
-  struct Unit {
-    std::vector<std::string> lines;
-    std::size_t statements = 0;
-  };
-  std::vector<Unit> units;
-  OpCount ops;
-
-  Unit& unit() { return units.emplace_back(); }
-
-  // Appends "target = (base - sum terms) * scale;" (scale may be empty; base
-  // may be empty for "-sum").  Counts len(terms) multiplications and
-  // additions, plus one multiplication for the scale.  Long sums are split
-  // into partial sums of kMaxTermsPerStatement products.
-  void update(Unit& u, const std::string& indent, const std::string& target, const std::string& base,
-              const std::vector<Term>& terms, const std::string& scale, const std::string& decl = "",
-              const std::string& acc = "s") {
-    ops.mul += static_cast<long long>(terms.size());
-    ops.add += static_cast<long long>(terms.size());
-    if (!scale.empty()) ops.mul += 1;
-    auto products = [&](std::size_t from, std::size_t to) {
-      std::string s;
-      for (std::size_t k = from; k < to; ++k) {
-        if (k > from) s += " + ";
-        s += terms[k].a + " * " + terms[k].b;
-      }
-      return s;
-    };
-    std::string value;
-    if (terms.empty()) {
-      value = base;
-    } else if (terms.size() <= kMaxTermsPerStatement) {
-      const std::string sum = products(0, terms.size());
-      value = terms.size() == 1 ? base + " - " + sum : base + " - (" + sum + ")";
-    } else {
-      // Partial sums: s = first chunk; s += next chunk; ...
-      for (std::size_t from = 0; from < terms.size(); from += kMaxTermsPerStatement) {
-        const std::size_t to = std::min(terms.size(), from + kMaxTermsPerStatement);
-        u.lines.push_back(indent + (from == 0 ? "double " + acc + " = " : acc + " += ") + products(from, to) + ";");
-        ++u.statements;
-      }
-      value = base + " - " + acc;
-    }
-    const std::string rhs = scale.empty() ? value : (terms.empty() ? value + " * " + scale
-                                                                    : "(" + value + ") * " + scale);
-    if (decl.empty() && terms.empty() && !scale.empty() && target == base) {
-      u.lines.push_back(indent + target + " *= " + scale + ";");
-    } else {
-      u.lines.push_back(indent + decl + target + " = " + rhs + ";");
-    }
-    ++u.statements;
-  }
-
-  // Functions of at most kMaxStatementsPerFunction statements, and a driver
-  // `name(args)` calling them in order.  With `checked`, the parts return int
-  // (non-zero: stop) and the driver forwards it.
-  std::string functions(const std::string& name, const std::string& params, const std::string& args,
-                        bool checked, const std::string& doc) const {
-    std::vector<std::vector<const Unit*>> parts(1);
-    std::size_t count = 0;
-    for (const Unit& u : units) {
-      if (count > 0 && count + u.statements > kMaxStatementsPerFunction) {
-        parts.emplace_back();
-        count = 0;
-      }
-      parts.back().push_back(&u);
-      count += u.statements;
-    }
-    const std::string ret = checked ? "int" : "void";
-    CodeWriter w;
-    // Parameter names ("double* L" -> "L"); one a body never indexes is
-    // marked used, so tiny models compile under -Wunused-parameter.
-    std::vector<std::string> names;
-    for (std::size_t pos = 0; pos < params.size();) {
-      std::size_t end = params.find(',', pos);
-      if (end == std::string::npos) end = params.size();
-      const std::string piece = params.substr(pos, end - pos);
-      names.push_back(piece.substr(piece.find_last_of(" *") + 1));
-      pos = end + 1;
-    }
-    auto body = [&](const std::vector<const Unit*>& part) {
-      for (const std::string& n : names) {
-        bool used = false;
-        for (const Unit* u : part)
-          for (const std::string& l : u->lines) used = used || l.find(n + "[") != std::string::npos;
-        if (!used) w.line("(void)" + n + ";");
-      }
-      for (const Unit* u : part)
-        for (const std::string& l : u->lines) w.line(l);
-    };
-    for (const std::string& d : split_lines(doc)) w.comment(d);
-    if (parts.size() == 1) {
-      CodeWriter::Scope f(w, ret + " " + name + "(" + params + ")");
-      body(parts[0]);
-      if (checked) w.line("return 0;");
-    } else {
-      for (std::size_t p = 0; p < parts.size(); ++p) {
-        CodeWriter::Scope f(w, fmt::format("{} {}_part{}({})", ret, name, p, params));
-        body(parts[p]);
-        if (checked) w.line("return 0;");
-      }
-      w.blank();
-      CodeWriter::Scope f(w, ret + " " + name + "(" + params + ")");
-      for (std::size_t p = 0; p < parts.size(); ++p) {
-        if (checked) w.line(fmt::format("if (const int s = {}_part{}({})) return s;", name, p, args));
-        else w.line(fmt::format("{}_part{}({});", name, p, args));
-      }
-      if (checked) w.line("return 0;");
-    }
-    std::string out = w.take();
-    if (!out.empty() && out.back() == '\n') out.pop_back();
-    return out;
-  }
-
-  static std::vector<std::string> split_lines(const std::string& text) {
-    std::vector<std::string> out;
-    std::size_t pos = 0;
-    while (pos <= text.size()) {
-      std::size_t eol = text.find('\n', pos);
-      if (eol == std::string::npos) eol = text.size();
-      out.push_back(text.substr(pos, eol - pos));
-      pos = eol + 1;
-    }
-    return out;
-  }
-};
-
-std::string L(const topology::Tree& t, int row, int col) {
-  return fmt::format("L[{}]", t.packed(row, col));
-}
-
-// Names a dof for comments: joint 'knee' or joint 'hip' (coordinate 2 of 3).
-std::string dof_label(const topology::Tree& t, int dof) {
-  const topology::Body& b = t.bodies[t.dof_body[dof]];
-  if (b.nv == 1) return fmt::format("joint '{}'", comment_text(b.joint_name));
-  return fmt::format("joint '{}' (coordinate {} of {})", comment_text(b.joint_name), dof - b.v_lem + 1, b.nv);
 }
 
 // Step 1: M = L L^T (or L D L^T), column by column, eq. (25) and (26); the
@@ -258,13 +60,7 @@ Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc,
         std::vector<Term> terms;
         for (int i : dj) terms.push_back({L(t, j, i), L(t, r, i)});
         const std::string target = L(t, r, j);
-        if (terms.size() > kMaxTermsPerStatement) {
-          u.lines.push_back(in + "{");
-          k.update(u, in + "  ", target, target, terms, fmt::format("Dinv[{}]", j));
-          u.lines.push_back(in + "}");
-        } else {
-          k.update(u, in, target, target, terms, fmt::format("Dinv[{}]", j));
-        }
+        k.update(u, in, target, target, terms, fmt::format("Dinv[{}]", j));
       }
     } else {
       // L D L^T: w_i = L[j,i] D[i]; D[j] = M[j,j] - sum_i w_i L[j,i];
@@ -288,13 +84,7 @@ Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc,
         std::vector<Term> terms;
         for (std::size_t n = 0; n < dj.size(); ++n) terms.push_back({fmt::format("w{}", n), L(t, r, dj[n])});
         const std::string target = L(t, r, j);
-        if (terms.size() > kMaxTermsPerStatement) {
-          u.lines.push_back(in + "{");
-          k.update(u, in + "  ", target, target, terms, fmt::format("Dinv[{}]", j));
-          u.lines.push_back(in + "}");
-        } else {
-          k.update(u, in, target, target, terms, fmt::format("Dinv[{}]", j));
-        }
+        k.update(u, in, target, target, terms, fmt::format("Dinv[{}]", j));
       }
     }
     u.lines.push_back("}");
@@ -315,13 +105,7 @@ Kernel step2(const topology::Tree& t, const std::vector<std::vector<int>>& desc,
     u.lines.push_back(fmt::format("// row {}: {}", j, dof_label(t, j)));
     const std::string zj = fmt::format("z[{}]", j);
     const std::string scale = method == Method::kLLT ? fmt::format("Dinv[{}]", j) : "";
-    if (terms.size() > kMaxTermsPerStatement) {
-      u.lines.push_back("{");
-      k.update(u, "  ", zj, zj, terms, scale);
-      u.lines.push_back("}");
-    } else {
-      k.update(u, "", zj, zj, terms, scale);
-    }
+    k.update(u, "", zj, zj, terms, scale);
   }
   return k;
 }
@@ -338,16 +122,12 @@ Kernel step4(const topology::Tree& t, Method method) {
     for (int r : t.ancestors(j)) terms.push_back({L(t, r, j), fmt::format("z[{}]", r)});
     const std::string zj = fmt::format("z[{}]", j);
     const std::string dinv = fmt::format("Dinv[{}]", j);
-    const bool long_sum = terms.size() > kMaxTermsPerStatement;
-    if (long_sum) u.lines.push_back("{");
-    const std::string in = long_sum ? "  " : "";
     if (method == Method::kLLT) {
-      k.update(u, in, zj, zj, terms, dinv);
+      k.update(u, "", zj, zj, terms, dinv);
     } else {
       k.ops.mul += 1;
-      k.update(u, in, zj, zj + " * " + dinv, terms, "");
+      k.update(u, "", zj, zj + " * " + dinv, terms, "");
     }
-    if (long_sum) u.lines.push_back("}");
   }
   return k;
 }
@@ -445,7 +225,8 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
   v["ns"] = options.name_space;
   v["nq"] = std::to_string(t.nq);
   v["nv"] = std::to_string(t.nv);
-  v["nc"] = "0";
+  const int nc = t.nc();
+  v["nc"] = std::to_string(nc);
   v["njoints"] = std::to_string(nb);
 
   Solver solver;
@@ -459,7 +240,14 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
   v["nv_plus_1"] = std::to_string(t.nv + 1);
   v["header"] = options.header_name;
   v["method"] = options.method == Method::kLLT ? "L L^T (Cholesky)" : "L D L^T (no square roots)";
-  v["summary"] = fmt::format("tree, nq = {}, nv = {}, no constraints.", t.nq, t.nv);
+  if (nc == 0) {
+    v["summary"] = fmt::format("tree, nq = {}, nv = {}, no constraints.", t.nq, t.nv);
+  } else {
+    int dropped = 0;
+    for (const topology::Cut& c : t.cuts) dropped += c.rows - static_cast<int>(c.kept_rows.size());
+    v["summary"] = fmt::format("closed loops, nq = {}, nv = {}, {} cut joint(s), nc = {} rows kept{}.", t.nq, t.nv,
+                               t.cuts.size(), nc, dropped ? fmt::format(" ({} redundant dropped)", dropped) : "");
+  }
   v["pattern"] = pattern_comment(t);
 
   std::string names, q_index, v_index;
@@ -480,6 +268,12 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
   v["dof_user"] = join_ints(t.dof_user);
   v["col_start"] = join_ints(t.M_col_start);
   v["dof_joint"] = join_ints(dof_joint);
+  std::vector<long long> pack_from_dense;
+  for (int c = 0; c < t.nv; ++c) {
+    pack_from_dense.push_back(static_cast<long long>(t.dof_user[c]) * (t.nv + 1));
+    for (int r : t.ancestors(c)) pack_from_dense.push_back(t.dof_user[r] + static_cast<long long>(t.nv) * t.dof_user[c]);
+  }
+  v["pack_from_dense"] = join_ints(pack_from_dense);
   v["model_init"] = fmt::format("{}, {}, {}, kBodies, kDofParent, kDofUser, kMColStart, {{{}, {}, {}}}", nb,
                                 t.nq, t.nv, num(options.gravity[0]), num(options.gravity[1]),
                                 num(options.gravity[2]));
@@ -517,8 +311,28 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
                   "Ops: {} add, {} mul, {} div.",
                   k4.ops.add, k4.ops.mul, k4.ops.div));
 
+  // The API: a tree gets no constraint code at all.
+  TemplateValues api;
+  for (const char* key : {"step2_args", "nnz", "bias_terms", "gravity_flag", "damping_flag"}) api[key] = v[key];
+  v.erase("step2_args");
+  v.erase("bias_terms");
+  solver.ops = {{"1", k1.ops}, {"2", k2.ops}};
+  if (nc == 0) {
+    v["constraint_tables"] = "";
+    v["constraint_workspace"] = "";
+    v["step3"] = "";
+    v["api"] = render_template("api_tree.cpp.tmpl", template_text("api_tree.cpp.tmpl"), api);
+  } else {
+    LoopCode loops = emit_loops(t, desc, options.method);
+    v["constraint_tables"] = loops.tables;
+    v["constraint_workspace"] = loops.workspace;
+    v["step3"] = loops.step3;
+    for (const auto& [key, value] : loops.call_args) api[key] = value;
+    v["api"] = render_template("api_loops.cpp.tmpl", template_text("api_loops.cpp.tmpl"), api);
+    solver.ops.insert(solver.ops.end(), loops.ops.begin(), loops.ops.end());
+  }
+  solver.ops.push_back({"4", k4.ops});
   solver.source = render_template("solver.cpp.tmpl", template_text("solver.cpp.tmpl"), v);
-  solver.ops = {{"1", k1.ops}, {"2", k2.ops}, {"4", k4.ops}};
   return solver;
 }
 

@@ -26,6 +26,12 @@ std::string render_template(std::string_view template_name, std::string_view tex
         throw std::runtime_error(std::string(template_name) + ": no value for {{" + name + "}}");
       used.insert(name);
       const std::string& value = it->second;
+      if (value.empty()) {
+        // The line goes, and with it one blank line after it, so an absent
+        // section leaves no double blank line behind.
+        if (pos < text.size() && text[pos] == '\n') ++pos;
+        continue;
+      }
       std::size_t vpos = 0;
       while (vpos < value.size()) {
         std::size_t veol = value.find('\n', vpos);

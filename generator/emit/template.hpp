@@ -1,8 +1,8 @@
 // Minimal text templates: "{{name}}" is replaced by the value of `name`.
 // A template line holding only "{{name}}" (plus indentation) is replaced by
 // the value's lines, each indented like the placeholder; an empty value
-// removes the line.  Unknown or unused names are errors, so templates and
-// emitter cannot drift apart silently.
+// removes the line and one blank line after it.  Unknown or unused names are
+// errors, so templates and emitter cannot drift apart silently.
 #pragma once
 
 #include <map>

@@ -1,5 +1,6 @@
 #include "topology/topology.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 
 #include "ir/error.hpp"
@@ -204,8 +205,48 @@ Tree build_tree(const ir::Robot& robot) {
   tree.M_col_start.assign(tree.nv + 1, 0);
   for (int d = 0; d < tree.nv; ++d) tree.M_col_start[d + 1] = tree.M_col_start[d] + tree.dof_depth[d] + 1;
 
+  // 4. Cut joints: the bodies they join and the dofs of Lemma 3.
+  for (int c = 0; c < static_cast<int>(robot.cuts.size()); ++c) {
+    const ir::CutJoint& ic = robot.cuts[c];
+    Cut cut;
+    cut.name = ic.name;
+    cut.type = ic.type;
+    cut.cut_ir = c;
+    const LinkPlacement& k = tree.links[ic.link_k];
+    const LinkPlacement& l = tree.links[ic.link_l];
+    cut.body_k = k.body_lem;
+    cut.body_l = l.body_lem;
+    cut.X_BkF = compose(k.X_BL, ic.frame_k);
+    cut.X_BlF = compose(l.X_BL, ic.frame_l);
+    cut.axis = ic.axis;
+    cut.child_axis = ic.child_axis;
+    cut.distance = ic.distance;
+    cut.distance_given = ic.distance_given;
+    if (cut.body_k == cut.body_l)
+      throw Error(ic.where, "loop_joint", ic.name,
+                  "joins two links of the same rigid body (after fusing fixed joints); it constrains nothing");
+    int dk = cut.body_k >= 0 ? tree.bodies[cut.body_k].v_lem : -1;
+    int dl = cut.body_l >= 0 ? tree.bodies[cut.body_l].v_lem : -1;
+    while (dk >= 0 || dl >= 0) {  // merge of two increasing chains
+      const int d = dl < 0 ? dk : dk < 0 ? dl : std::min(dk, dl);
+      cut.dofs.push_back(d);
+      if (dk != dl) cut.num_distinct = static_cast<int>(cut.dofs.size());
+      if (dk == d) dk = tree.dof_parent[dk];
+      if (dl == d) dl = tree.dof_parent[dl];
+    }
+    cut.rows = ir::cut_rows(ic.type);
+    for (int r = 0; r < cut.rows; ++r) cut.kept_rows.push_back(r);
+    tree.cuts.push_back(std::move(cut));
+  }
+
   check_lemma2(tree);
   return tree;
+}
+
+int Tree::nc() const {
+  int n = 0;
+  for (const Cut& c : cuts) n += static_cast<int>(c.kept_rows.size());
+  return n;
 }
 
 void check_lemma2(const Tree& tree) {

@@ -43,6 +43,32 @@ struct LinkPlacement {
   ir::Pose X_BL;
 };
 
+/// A cut joint placed on the body tree.  Its rows follow the order documented
+/// in runtime/include/jrgen/runtime.hpp (CutKind).
+struct Cut {
+  std::string name;
+  ir::CutType type = ir::CutType::Spherical;
+  int cut_ir = -1;      ///< index into ir::Robot::cuts
+  int body_k = -1;      ///< Lemma 2 body carrying the frame on k; -1: the fixed base
+  int body_l = -1;
+  ir::Pose X_BkF;       ///< frame on k in body k's frame (fixed joints folded in)
+  ir::Pose X_BlF;
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d child_axis = Eigen::Vector3d::UnitZ();
+  double distance = 0.0;
+  bool distance_given = false;
+  /// Lemma 3: dofs of the bodies on the paths from k and l to the base, in
+  /// increasing Lemma 2 order.  Only these rows of T^(j), and these columns of
+  /// the cut's rows of Phiq, can be non-zero.
+  std::vector<int> dofs;
+  /// The first num_distinct dofs lie on one path only; the rest (common
+  /// ancestors of k and l) move both frames rigidly, so Phiq is exactly zero
+  /// there while T generally is not.
+  int num_distinct = 0;
+  int rows = 0;                ///< rows of the cut type
+  std::vector<int> kept_rows;  ///< rows kept after the redundancy analysis (all by default)
+};
+
 struct Tree {
   std::vector<Body> bodies;  ///< Lemma 2 order
   std::vector<LinkPlacement> links;  ///< one per ir link
@@ -54,6 +80,10 @@ struct Tree {
   std::vector<int> dof_user;    ///< user velocity index
   std::vector<int> dof_depth;   ///< number of ancestors
   std::vector<int> M_col_start; ///< packed column starts (nv + 1): rows j, parent(j), ...
+  std::vector<Cut> cuts;        ///< in ir::Robot::cuts order
+
+  /// Kept constraint rows (nc).
+  int nc() const;
 
   int nnz() const { return M_col_start.empty() ? 0 : M_col_start.back(); }
   /// Packed position of (row, col), row an ancestor of or equal to col.

@@ -306,6 +306,359 @@ void pack_mass_matrix(const Model& model, const double* M_user, double* Mp) {
   }
 }
 
+// ---- Cut joints ----------------------------------------------------------------
+//
+// For a scalar row Phi, with body k's frame origin velocity and angular
+// velocity (v_k, w_k) and likewise for l, the derivative is written as
+//   (g)  Phi_dot = c_wk . w_k + c_vk . v(P_k) + c_wl . w_l + c_vl . v(P_l),
+// v(P) the velocity of the body-fixed point P.  A dof j of a body J on the
+// path from k (or l) to the base moves body k with world twist (w_j, v_j at
+// J's origin o_J), so (g) gives its Jacobian entry
+//   (h)  (c_w + (P - o_J) x c_v) . w_j + c_v . v_j.
+// gamma = -(d/dt Phiq) v is -Phi_ddot at qdd = 0, from the bias
+// accelerations of the bodies (no gravity):
+//   point    e . r:  Phi_ddot = e_dd . r + 2 e_d . r_d + e . r_dd
+//   dot      a . b:  Phi_ddot = a_dd . b + 2 a_d . b_d + a . b_dd
+//   distance:        Phi_ddot = (r_d . r_d + r . r_dd) / D
+// with e_d = w x e and e_dd = alpha x e + w x (w x e) for a body-fixed e.
+
+int cut_kind_rows(CutKind kind) {
+  switch (kind) {
+    case CutKind::kSpherical: return 3;
+    case CutKind::kRevolute: return 5;
+    case CutKind::kPrismatic: return 5;
+    case CutKind::kCylindrical: return 4;
+    case CutKind::kUniversal: return 4;
+    case CutKind::kFixed: return 6;
+    case CutKind::kDistance: return 1;
+  }
+  return 0;
+}
+
+namespace {
+
+// World motion of every body at qdd = 0 without gravity (needs kinematics()).
+void body_motions(const Model& model, BodyState* bodies, BodyMotion* motion, const double* v) {
+  Vector6d vJ, cJ;
+  for (std::int32_t i = model.nb - 1; i >= 0; --i) {
+    const BodyModel& bm = model.bodies[i];
+    BodyState& b = bodies[i];
+    BodyMotion& m = motion[i];
+    if (bm.parent < 0) {
+      m.R = b.R;
+      m.p = b.p;
+    } else {
+      m.R = motion[bm.parent].R * b.R;
+      m.p = motion[bm.parent].p + motion[bm.parent].R * b.p;
+    }
+    if (v == nullptr) continue;
+    joint_velocity(bm, b, v, vJ, cJ);
+    if (bm.parent < 0) {
+      b.v = vJ;
+      b.a = cJ;
+    } else {
+      const BodyState& P = bodies[bm.parent];
+      b.v = motion_to_child(b, P.v) + vJ;
+      b.a = motion_to_child(b, P.a) + cJ + cross_motion(b.v, vJ);
+    }
+    const Vector3d w_B = b.v.head<3>(), v_B = b.v.tail<3>();
+    m.w = m.R * w_B;
+    m.v = m.R * v_B;
+    m.alpha = m.R * b.a.head<3>();
+    m.a = m.R * (b.a.tail<3>() + w_B.cross(v_B));  // classical acceleration of the origin
+  }
+}
+
+// A frame fixed on a body, in the world, with the motion of its origin and
+// of its body.
+struct FrameMotion {
+  Matrix3d R;
+  Vector3d p, w, v, alpha, a;
+};
+
+FrameMotion frame_motion(std::int32_t body, const double* R_BF, const double* p_BF, const BodyMotion* motion,
+                         bool with_velocity) {
+  FrameMotion f;
+  const Matrix3d R = mat3_row_major(R_BF);
+  const Vector3d p = vec3(p_BF);
+  if (body < 0) {
+    f.R = R;
+    f.p = p;
+    f.w = f.v = f.alpha = f.a = Vector3d::Zero();
+    return f;
+  }
+  const BodyMotion& m = motion[body];
+  f.R = m.R * R;
+  const Vector3d r = m.R * p;
+  f.p = m.p + r;
+  if (with_velocity) {
+    f.w = m.w;
+    f.alpha = m.alpha;
+    f.v = m.v + m.w.cross(r);
+    f.a = m.a + m.alpha.cross(r) + m.w.cross(m.w.cross(r));
+  } else {
+    f.w = f.v = f.alpha = f.a = Vector3d::Zero();
+  }
+  return f;
+}
+
+// One scalar row: value, -Phi_ddot at qdd = 0, and the coefficients of (g).
+struct CutRow {
+  double phi = 0.0, gamma = 0.0;
+  Vector3d cwk = Vector3d::Zero(), cvk = Vector3d::Zero(), cwl = Vector3d::Zero(), cvl = Vector3d::Zero();
+};
+
+CutRow point_row(const Vector3d& e, const FrameMotion& k, const FrameMotion& l) {
+  const Vector3d r = l.p - k.p, rd = l.v - k.v, rdd = l.a - k.a;
+  const Vector3d ed = k.w.cross(e), edd = k.alpha.cross(e) + k.w.cross(k.w.cross(e));
+  CutRow row;
+  row.phi = e.dot(r);
+  row.gamma = -(edd.dot(r) + 2.0 * ed.dot(rd) + e.dot(rdd));
+  row.cwk = e.cross(r);
+  row.cvk = -e;
+  row.cvl = e;
+  return row;
+}
+
+CutRow dot_row(const Vector3d& a, const Vector3d& b, const FrameMotion& k, const FrameMotion& l) {
+  const Vector3d ad = k.w.cross(a), add = k.alpha.cross(a) + k.w.cross(k.w.cross(a));
+  const Vector3d bd = l.w.cross(b), bdd = l.alpha.cross(b) + l.w.cross(l.w.cross(b));
+  CutRow row;
+  row.phi = a.dot(b);
+  row.gamma = -(add.dot(b) + 2.0 * ad.dot(bd) + a.dot(bdd));
+  row.cwk = a.cross(b);
+  row.cwl = b.cross(a);
+  return row;
+}
+
+CutRow distance_row(double D, const FrameMotion& k, const FrameMotion& l) {
+  const Vector3d r = l.p - k.p, rd = l.v - k.v, rdd = l.a - k.a;
+  CutRow row;
+  row.phi = (r.squaredNorm() - D * D) / (2.0 * D);
+  row.gamma = -(rd.squaredNorm() + r.dot(rdd)) / D;
+  row.cvk = -r / D;
+  row.cvl = r / D;
+  return row;
+}
+
+// u, w completing a unit axis to a right-handed orthonormal basis (u, w, axis),
+// chosen by a fixed rule so that rows are reproducible.
+void complete_basis(const Vector3d& axis, Vector3d& u, Vector3d& w) {
+  const Vector3d helper = std::abs(axis.x()) < 0.9 ? Vector3d::UnitX() : Vector3d::UnitY();
+  u = (helper - helper.dot(axis) * axis).normalized();
+  w = axis.cross(u);
+}
+
+// Every row of a cut, in the order documented in runtime.hpp.
+int cut_rows(const CutModel& cut, const FrameMotion& k, const FrameMotion& l, CutRow* rows) {
+  const Vector3d xk = k.R.col(0), yk = k.R.col(1), zk = k.R.col(2);
+  const Vector3d xl = l.R.col(0), yl = l.R.col(1), zl = l.R.col(2);
+  const Vector3d axis = vec3(cut.axis);
+  Vector3d u, w;
+  complete_basis(axis, u, w);
+  const Vector3d u_W = k.R * u, w_W = k.R * w, axis_l_W = l.R * axis;
+  int n = 0;
+  auto points_xyz = [&] {
+    rows[n++] = point_row(xk, k, l);
+    rows[n++] = point_row(yk, k, l);
+    rows[n++] = point_row(zk, k, l);
+  };
+  auto orientation = [&] {
+    rows[n++] = dot_row(yk, zl, k, l);
+    rows[n++] = dot_row(zk, xl, k, l);
+    rows[n++] = dot_row(xk, yl, k, l);
+  };
+  auto axis_aligned = [&] {
+    rows[n++] = dot_row(u_W, axis_l_W, k, l);
+    rows[n++] = dot_row(w_W, axis_l_W, k, l);
+  };
+  auto across_axis = [&] {
+    rows[n++] = point_row(u_W, k, l);
+    rows[n++] = point_row(w_W, k, l);
+  };
+  switch (cut.kind) {
+    case CutKind::kSpherical: points_xyz(); break;
+    case CutKind::kRevolute: points_xyz(); axis_aligned(); break;
+    case CutKind::kPrismatic: orientation(); across_axis(); break;
+    case CutKind::kCylindrical: axis_aligned(); across_axis(); break;
+    case CutKind::kUniversal:
+      points_xyz();
+      rows[n++] = dot_row(k.R * axis, l.R * vec3(cut.child_axis), k, l);
+      break;
+    case CutKind::kFixed: points_xyz(); orientation(); break;
+    case CutKind::kDistance: rows[n++] = distance_row(cut.distance, k, l); break;
+  }
+  return n;
+}
+
+// Walks the dofs on the paths of body_k and body_l to the base in increasing
+// Lemma 2 order, calling f(index, dof, on_k, on_l).
+template <typename F>
+void for_each_cut_dof(const Model& model, std::int32_t body_k, std::int32_t body_l, F&& f) {
+  std::int32_t dk = body_k >= 0 ? model.bodies[body_k].v_lem : -1;
+  std::int32_t dl = body_l >= 0 ? model.bodies[body_l].v_lem : -1;
+  std::int32_t index = 0;
+  while (dk >= 0 || dl >= 0) {
+    std::int32_t d;
+    bool on_k = false, on_l = false;
+    if (dl < 0 || (dk >= 0 && dk < dl)) {
+      d = dk;
+      on_k = true;
+    } else if (dk < 0 || dl < dk) {
+      d = dl;
+      on_l = true;
+    } else {
+      d = dk;
+      on_k = on_l = true;
+    }
+    f(index++, d, on_k, on_l);
+    if (on_k) dk = model.dof_parent[dk];
+    if (on_l) dl = model.dof_parent[dl];
+  }
+}
+
+// Body owning a dof (dofs of a body are contiguous from v_lem).
+std::int32_t dof_owner(const Model& model, std::int32_t dof, std::int32_t hint) {
+  std::int32_t b = hint;
+  while (model.bodies[b].v_lem + model.bodies[b].nv <= dof) b = model.bodies[b].parent;
+  return b;
+}
+
+// Jacobian entry (h) of one row for a dof with world twist (wj, vj) of a body
+// with origin o.
+double row_entry(const CutRow& row, bool on_k, bool on_l, const Vector3d& wj, const Vector3d& vj,
+                 const Vector3d& o, const Vector3d& Pk, const Vector3d& Pl) {
+  double e = 0.0;
+  if (on_k) e += (row.cwk + (Pk - o).cross(row.cvk)).dot(wj) + row.cvk.dot(vj);
+  if (on_l) e += (row.cwl + (Pl - o).cross(row.cvl)).dot(wj) + row.cvl.dot(vj);
+  return e;
+}
+
+// Shared driver: rows of every cut and their Jacobian entries, handed to
+// `emit(cut index, row index, row, dof index on the path, dof, entry)`.
+template <typename RowF, typename EntryF>
+void evaluate_cuts(const Model& model, const ConstraintModel& cm, BodyState* bodies, BodyMotion* motion,
+                   const double* q, const double* v, bool jacobian, RowF&& on_row, EntryF&& on_entry) {
+  kinematics(model, bodies, q);
+  body_motions(model, bodies, motion, v);
+  CutRow rows[6];
+  for (std::int32_t c = 0; c < cm.ncuts; ++c) {
+    const CutModel& cut = cm.cuts[c];
+    const FrameMotion k = frame_motion(cut.body_k, cut.R_k, cut.p_k, motion, v != nullptr);
+    const FrameMotion l = frame_motion(cut.body_l, cut.R_l, cut.p_l, motion, v != nullptr);
+    const int n = cut_rows(cut, k, l, rows);
+    for (int r = 0; r < n; ++r) on_row(c, r, rows[r]);
+    if (!jacobian) continue;
+    std::int32_t owner = cut.body_k >= 0 ? cut.body_k : cut.body_l;
+    for_each_cut_dof(model, cut.body_k, cut.body_l, [&](std::int32_t index, std::int32_t dof, bool on_k, bool on_l) {
+      // A dof on both paths moves Fk and Fl together rigidly, and every row
+      // depends only on their relative placement: its entries are exactly 0.
+      if (on_k && on_l) return;
+      owner = dof_owner(model, dof, on_k ? (cut.body_k) : (cut.body_l));
+      const BodyModel& bm = model.bodies[owner];
+      const Vector6d& S = bodies[owner].S.col(dof - bm.v_lem);
+      const Vector3d wj = motion[owner].R * S.head<3>(), vj = motion[owner].R * S.tail<3>();
+      for (int r = 0; r < n; ++r)
+        on_entry(c, r, index, dof, row_entry(rows[r], on_k, on_l, wj, vj, motion[owner].p, k.p, l.p));
+    });
+  }
+}
+
+}  // namespace
+
+void constraint_terms(const Model& model, const ConstraintModel& cm, BodyState* bodies, BodyMotion* motion,
+                      const double* q, const double* v, double* phi, double* Phiq_p, double* gamma) {
+  // Kept-row index of row r of cut c, or -1.
+  auto kept = [&](std::int32_t c, int r) -> std::int32_t {
+    const CutModel& cut = cm.cuts[c];
+    if (!(cut.row_mask >> r & 1)) return -1;
+    std::int32_t before = 0;
+    for (int s = 0; s < r; ++s) before += cut.row_mask >> s & 1;
+    return before;
+  };
+  evaluate_cuts(
+      model, cm, bodies, motion, q, gamma ? v : nullptr, Phiq_p != nullptr,
+      [&](std::int32_t c, int r, const CutRow& row) {
+        const std::int32_t k = kept(c, r);
+        if (k < 0) return;
+        if (phi) phi[cm.cuts[c].first_row + k] = row.phi;
+        if (gamma) gamma[cm.cuts[c].first_row + k] = row.gamma;
+      },
+      [&](std::int32_t c, int r, std::int32_t index, std::int32_t, double entry) {
+        const std::int32_t k = kept(c, r);
+        if (k < 0) return;
+        const CutModel& cut = cm.cuts[c];
+        Phiq_p[cut.phiq_start + k * cut.num_dofs + index] = entry;
+      });
+}
+
+void constraints(const Model& model, const ConstraintModel& cm, BodyState* bodies, const double* q, double* phi) {
+  // Positions only: world poses in BodyState suffice.
+  kinematics(model, bodies, q);
+  world_poses(model, bodies);
+  for (std::int32_t c = 0; c < cm.ncuts; ++c) {
+    const CutModel& cut = cm.cuts[c];
+    auto frame = [&](std::int32_t body, const double* R_BF, const double* p_BF) {
+      FrameMotion f;
+      f.R = mat3_row_major(R_BF);
+      f.p = vec3(p_BF);
+      if (body >= 0) {
+        f.p = bodies[body].p_WC + bodies[body].R_WC * f.p;
+        f.R = bodies[body].R_WC * f.R;
+      }
+      f.w = f.v = f.alpha = f.a = Vector3d::Zero();
+      return f;
+    };
+    const FrameMotion k = frame(cut.body_k, cut.R_k, cut.p_k), l = frame(cut.body_l, cut.R_l, cut.p_l);
+    CutRow rows[6];
+    const int n = cut_rows(cut, k, l, rows);
+    std::int32_t out = cut.first_row;
+    for (int r = 0; r < n; ++r)
+      if (cut.row_mask >> r & 1) phi[out++] = rows[r].phi;
+  }
+}
+
+void constraints_all_rows(const Model& model, const ConstraintModel& cm, BodyState* bodies, BodyMotion* motion,
+                          const double* q, double* phi_all, double* Phiq_all) {
+  // Row offsets of every cut with all rows.
+  std::int32_t total = 0;
+  for (std::int32_t c = 0; c < cm.ncuts; ++c) total += cut_kind_rows(cm.cuts[c].kind);
+  if (Phiq_all)
+    for (std::int64_t k = 0; k < static_cast<std::int64_t>(total) * model.nv; ++k) Phiq_all[k] = 0.0;
+  auto offset = [&](std::int32_t c) {
+    std::int32_t o = 0;
+    for (std::int32_t i = 0; i < c; ++i) o += cut_kind_rows(cm.cuts[i].kind);
+    return o;
+  };
+  evaluate_cuts(
+      model, cm, bodies, motion, q, nullptr, Phiq_all != nullptr,
+      [&](std::int32_t c, int r, const CutRow& row) {
+        if (phi_all) phi_all[offset(c) + r] = row.phi;
+      },
+      [&](std::int32_t c, int r, std::int32_t, std::int32_t dof, double entry) {
+        Phiq_all[(offset(c) + r) + static_cast<std::int64_t>(total) * model.dof_user[dof]] = entry;
+      });
+}
+
+void unpack_constraint_jacobian(const Model& model, const ConstraintModel& cm, const double* Phiq_p,
+                                double* Phiq_user) {
+  const std::int32_t nc = cm.nc;
+  for (std::int64_t k = 0; k < static_cast<std::int64_t>(nc) * model.nv; ++k) Phiq_user[k] = 0.0;
+  for (std::int32_t c = 0; c < cm.ncuts; ++c) {
+    const CutModel& cut = cm.cuts[c];
+    std::int32_t kept = 0;
+    for (int r = 0; r < cut_kind_rows(cut.kind); ++r) {
+      if (!(cut.row_mask >> r & 1)) continue;
+      const std::int32_t row = cut.first_row + kept;
+      const double* src = Phiq_p + cut.phiq_start + kept * cut.num_dofs;
+      for_each_cut_dof(model, cut.body_k, cut.body_l, [&](std::int32_t index, std::int32_t dof, bool on_k, bool on_l) {
+        if (!(on_k && on_l)) Phiq_user[row + static_cast<std::int64_t>(nc) * model.dof_user[dof]] = src[index];
+      });
+      ++kept;
+    }
+  }
+}
+
 const char* status_name(int status) {
   switch (status) {
     case kSuccess: return "success";

@@ -123,6 +123,104 @@ void pack_mass_matrix(const Model& model, const double* M_user, double* Mp);
 /// ancestor of (or equal to) col; -1 when structurally zero.
 std::int32_t packed_index(const Model& model, std::int32_t row_lem, std::int32_t col_lem);
 
+// ---- Cut joints (closed loops) ------------------------------------------------
+//
+// A cut joint constrains a joint frame Fk fixed on body k to a joint frame Fl
+// fixed on body l (either may be the fixed base, index -1).  Its rows, before
+// redundant ones are dropped (INTERFACE.md section 2), are built from three
+// kinds of scalar constraint, all expressed in the frame on k where a
+// direction is needed (so a redundant row stays redundant when the whole
+// mechanism moves):
+//   point    e . (p_l - p_k)            e a unit direction fixed in Fk
+//   dot      a . b                      a fixed in Fk, b fixed in Fl
+//   distance (|p_l - p_k|^2 - D^2) / (2 D)
+// with p_k, p_l the frame origins.  Rows per type:
+//   spherical   point x, y, z
+//   revolute    point x, y, z; dot(u, axis_l), dot(w, axis_l)
+//   prismatic   dot(y_k, z_l), dot(z_k, x_l), dot(x_k, y_l); point u, point w
+//   cylindrical dot(u, axis_l), dot(w, axis_l); point u, point w
+//   universal   point x, y, z; dot(axis, child_axis)
+//   fixed       point x, y, z; dot(y_k, z_l), dot(z_k, x_l), dot(x_k, y_l)
+//   distance    distance
+// where u, w complete the axis to a right-handed orthonormal basis in Fk and
+// axis_l is the same axis vector expressed in Fl.
+
+enum class CutKind : std::int32_t {
+  kSpherical = 0,
+  kRevolute = 1,
+  kPrismatic = 2,
+  kCylindrical = 3,
+  kUniversal = 4,
+  kFixed = 5,
+  kDistance = 6,
+};
+
+/// Number of rows of a cut kind before any is dropped.
+int cut_kind_rows(CutKind kind);
+
+struct CutModel {
+  const char* name;      ///< the <loop_joint>, for diagnostics
+  CutKind kind;
+  std::int32_t body_k;   ///< Lemma 2 body carrying Fk, -1: the fixed base
+  std::int32_t body_l;   ///< Lemma 2 body carrying Fl, -1: the fixed base
+  double R_k[9];         ///< Fk in body k's frame: rotation, row-major
+  double p_k[3];
+  double R_l[9];         ///< Fl in body l's frame
+  double p_l[3];
+  double axis[3];        ///< unit, in Fk (revolute, prismatic, cylindrical, universal)
+  double child_axis[3];  ///< unit, in Fl (universal)
+  double distance;       ///< D (distance cuts)
+  std::int32_t row_mask;   ///< bit r set: row r is kept
+  std::int32_t first_row;  ///< index of the first kept row in Phi
+  std::int32_t phiq_start; ///< first entry of this cut's rows in the packed Phiq
+  std::int32_t num_dofs;   ///< structural non-zeros per row (dofs on the paths of k and l to the base)
+};
+
+/// Packed constraint Jacobian: kept row r of cut c stores num_dofs entries,
+/// the dofs on the paths from k and from l to the base in increasing Lemma 2
+/// order (Lemma 3: exactly the rows of T^(c) that can be non-zero), starting
+/// at phiq_start + r_kept * num_dofs.  Dofs on both paths (the common
+/// ancestors, a suffix of the list) move both frames rigidly: their Jacobian
+/// entries are exactly zero and are neither computed nor written.
+struct ConstraintModel {
+  std::int32_t ncuts;
+  std::int32_t nc;          ///< kept rows
+  std::int32_t phiq_nnz;    ///< stored Jacobian entries
+  const CutModel* cuts;
+};
+
+/// Per-body motion in world coordinates, for the constraint pass.
+struct BodyMotion {
+  Eigen::Matrix3d R;      ///< R_WB
+  Eigen::Vector3d p;      ///< p_WB
+  Eigen::Vector3d w;      ///< angular velocity, world
+  Eigen::Vector3d v;      ///< velocity of the body origin, world
+  Eigen::Vector3d alpha;  ///< angular acceleration at qdd = 0, world
+  Eigen::Vector3d a;      ///< acceleration of the body origin at qdd = 0, world
+};
+
+/// Phi (nc) of the kept rows at q.  Needs nothing precomputed.
+void constraints(const Model& model, const ConstraintModel& cm, BodyState* bodies, const double* q,
+                 double* phi);
+
+/// Phi (may be nullptr), the packed Jacobian Phiq_p (phiq_nnz, with respect to
+/// the velocity coordinates; common-ancestor entries untouched) and
+/// gamma = -(d/dt Phiq) v (may be nullptr; then v may be nullptr) at (q, v).
+/// Needs kinematics().  `motion` is a workspace of Model::nb entries.
+void constraint_terms(const Model& model, const ConstraintModel& cm, BodyState* bodies,
+                      BodyMotion* motion, const double* q, const double* v, double* phi,
+                      double* Phiq_p, double* gamma);
+
+/// Every row of every cut (row masks ignored), dense: Phi_all (sum of rows)
+/// and Phiq_all (rows x nv, column-major, user order).  For generation-time
+/// analysis; allocates nothing but is O(rows * nv).
+void constraints_all_rows(const Model& model, const ConstraintModel& cm, BodyState* bodies,
+                          BodyMotion* motion, const double* q, double* phi_all, double* Phiq_all);
+
+/// Dense nc x nv column-major user-order Phiq from the packed one.
+void unpack_constraint_jacobian(const Model& model, const ConstraintModel& cm, const double* Phiq_p,
+                                double* Phiq_user);
+
 /// Result codes of the generated solvers (INTERFACE.md section 4).
 enum Status : int {
   kSuccess = 0,

@@ -1,0 +1,75 @@
+// Text formatting shared by the emitters (internal to the emit stage).
+#pragma once
+
+#include <fmt/format.h>
+
+#include <Eigen/Core>
+#include <string>
+#include <string_view>
+
+#include "topology/topology.hpp"
+
+namespace jrgen::emit {
+
+// Round-trip formatting of model constants (shortest exact representation).
+inline std::string num(double x) {
+  if (x == 0.0) return "0.0";
+  std::string s = fmt::format("{}", x);
+  if (s.find_first_of(".eEn") == std::string::npos) s += ".0";
+  return s;
+}
+
+inline std::string vec(const Eigen::Vector3d& v) {
+  return fmt::format("{{{}, {}, {}}}", num(v[0]), num(v[1]), num(v[2]));
+}
+
+template <typename Range>
+std::string join_ints(const Range& values) {
+  std::string out;
+  for (const auto& v : values) {
+    if (!out.empty()) out += ", ";
+    out += std::to_string(v);
+  }
+  return out;
+}
+
+// A URDF name inside a C++ string literal: quotes, backslashes and control
+// characters escaped (octal), so any name compiles.
+inline std::string c_string(std::string_view name) {
+  std::string out = "\"";
+  for (unsigned char c : name) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += static_cast<char>(c);
+    } else if (c < 0x20 || c == 0x7f) {
+      out += fmt::format("\\{:03o}", c);
+    } else {
+      out += static_cast<char>(c);
+    }
+  }
+  return out + "\"";
+}
+
+// A URDF name inside a // comment: control characters become '?' and
+// backslashes '/', so a name can never end or continue the comment line.
+inline std::string comment_text(std::string_view name) {
+  std::string out(name);
+  for (char& c : out) {
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = '?';
+    if (c == '\\') c = '/';
+  }
+  return out;
+}
+
+inline std::string L(const topology::Tree& t, int row, int col) {
+  return fmt::format("L[{}]", t.packed(row, col));
+}
+
+// Names a dof for comments: joint 'knee' or joint 'hip' (coordinate 2 of 3).
+inline std::string dof_label(const topology::Tree& t, int dof) {
+  const topology::Body& b = t.bodies[t.dof_body[dof]];
+  if (b.nv == 1) return fmt::format("joint '{}'", comment_text(b.joint_name));
+  return fmt::format("joint '{}' (coordinate {} of {})", comment_text(b.joint_name), dof - b.v_lem + 1, b.nv);
+}
+
+}  // namespace jrgen::emit

@@ -1,0 +1,153 @@
+#include "emit/kernel.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+
+#include "emit/code_writer.hpp"
+
+namespace jrgen::emit {
+
+namespace {
+std::string products(const std::vector<Term>& terms, std::size_t from, std::size_t to) {
+  std::string s;
+  for (std::size_t k = from; k < to; ++k) {
+    if (k > from) s += " + ";
+    s += terms[k].a + " * " + terms[k].b;
+  }
+  return s;
+}
+
+// Partial sums of more than kMaxTermsPerStatement products: "double acc =
+// chunk;" then "acc += chunk;".  Returns the name holding the sum.
+std::string partial_sums(Kernel::Unit& u, const std::string& indent, const std::vector<Term>& terms,
+                         const std::string& acc) {
+  for (std::size_t from = 0; from < terms.size(); from += kMaxTermsPerStatement) {
+    const std::size_t to = std::min(terms.size(), from + kMaxTermsPerStatement);
+    u.lines.push_back(indent + (from == 0 ? "double " + acc + " = " : acc + " += ") + products(terms, from, to) +
+                      ";");
+    ++u.statements;
+  }
+  return acc;
+}
+}  // namespace
+
+void Kernel::update(Unit& u, const std::string& indent, const std::string& target, const std::string& base,
+                    const std::vector<Term>& terms, const std::string& scale, const std::string& decl,
+                    const std::string& acc) {
+  ops.mul += static_cast<long long>(terms.size());
+  // With no base the sum is negated, not subtracted from anything: one
+  // addition fewer (a sign change is not counted).
+  ops.add += static_cast<long long>(terms.size()) - (base.empty() && !terms.empty() ? 1 : 0);
+  if (!scale.empty()) ops.mul += 1;
+  if (terms.empty()) {
+    if (decl.empty() && !scale.empty() && target == base) u.lines.push_back(indent + target + " *= " + scale + ";");
+    else u.lines.push_back(indent + decl + target + " = " + base + (scale.empty() ? "" : " * " + scale) + ";");
+    ++u.statements;
+    return;
+  }
+  std::string value;
+  const bool scoped = terms.size() > kMaxTermsPerStatement && decl.empty();
+  std::string in = indent;
+  if (scoped) {
+    u.lines.push_back(indent + "{");
+    in += "  ";
+  }
+  const std::string minus = base.empty() ? "-" : base + " - ";
+  if (terms.size() <= kMaxTermsPerStatement) {
+    const std::string sum = products(terms, 0, terms.size());
+    value = terms.size() == 1 && !base.empty() ? minus + sum : minus + "(" + sum + ")";
+  } else {
+    value = minus + partial_sums(u, in, terms, acc);
+  }
+  u.lines.push_back(in + decl + target + " = " + (scale.empty() ? value : "(" + value + ") * " + scale) + ";");
+  ++u.statements;
+  if (scoped) u.lines.push_back(indent + "}");
+}
+
+void Kernel::assign_sum(Unit& u, const std::string& indent, const std::string& target, const std::vector<Term>& terms,
+                        const std::string& tail) {
+  ops.mul += static_cast<long long>(terms.size());
+  ops.add += static_cast<long long>(terms.size()) - 1 + (tail.empty() ? 0 : 1);
+  const std::string minus_tail = tail.empty() ? "" : " - " + tail;
+  if (terms.size() <= kMaxTermsPerStatement) {
+    u.lines.push_back(indent + target + " = " + products(terms, 0, terms.size()) + minus_tail + ";");
+    ++u.statements;
+    return;
+  }
+  u.lines.push_back(indent + "{");
+  const std::string acc = partial_sums(u, indent + "  ", terms, "s");
+  u.lines.push_back(indent + "  " + target + " = " + acc + minus_tail + ";");
+  u.lines.push_back(indent + "}");
+  ++u.statements;
+}
+
+std::string Kernel::functions(const std::string& name, const std::string& params, const std::string& args,
+                              bool checked, const std::string& doc) const {
+  std::vector<std::vector<const Unit*>> parts(1);
+  std::size_t count = 0;
+  for (const Unit& u : units) {
+    if (count > 0 && count + u.statements > kMaxStatementsPerFunction) {
+      parts.emplace_back();
+      count = 0;
+    }
+    parts.back().push_back(&u);
+    count += u.statements;
+  }
+  const std::string ret = checked ? "int" : "void";
+  std::vector<std::string> names;  // "double* L" -> "L"
+  for (std::size_t pos = 0; pos < params.size();) {
+    std::size_t end = params.find(',', pos);
+    if (end == std::string::npos) end = params.size();
+    const std::string piece = params.substr(pos, end - pos);
+    names.push_back(piece.substr(piece.find_last_of(" *") + 1));
+    pos = end + 1;
+  }
+  CodeWriter w;
+  auto body = [&](const std::vector<const Unit*>& part) {
+    for (const std::string& n : names) {
+      bool used = false;
+      for (const Unit* u : part)
+        for (const std::string& l : u->lines) used = used || l.find(n + "[") != std::string::npos;
+      if (!used) w.line("(void)" + n + ";");
+    }
+    for (const Unit* u : part)
+      for (const std::string& l : u->lines) w.line(l);
+  };
+  for (const std::string& d : split_lines(doc)) w.comment(d);
+  if (parts.size() == 1) {
+    CodeWriter::Scope f(w, ret + " " + name + "(" + params + ")");
+    body(parts[0]);
+    if (checked) w.line("return 0;");
+  } else {
+    for (std::size_t p = 0; p < parts.size(); ++p) {
+      CodeWriter::Scope f(w, fmt::format("{} {}_part{}({})", ret, name, p, params));
+      body(parts[p]);
+      if (checked) w.line("return 0;");
+    }
+    w.blank();
+    CodeWriter::Scope f(w, ret + " " + name + "(" + params + ")");
+    for (std::size_t p = 0; p < parts.size(); ++p) {
+      if (checked) w.line(fmt::format("if (const int s = {}_part{}({})) return s;", name, p, args));
+      else w.line(fmt::format("{}_part{}({});", name, p, args));
+    }
+    if (checked) w.line("return 0;");
+  }
+  std::string out = w.take();
+  if (!out.empty() && out.back() == '\n') out.pop_back();
+  return out;
+}
+
+std::vector<std::string> split_lines(const std::string& text) {
+  std::vector<std::string> out;
+  std::size_t pos = 0;
+  while (pos <= text.size()) {
+    std::size_t eol = text.find('\n', pos);
+    if (eol == std::string::npos) eol = text.size();
+    out.push_back(text.substr(pos, eol - pos));
+    pos = eol + 1;
+  }
+  return out;
+}
+
+}  // namespace jrgen::emit

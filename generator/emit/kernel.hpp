@@ -1,0 +1,61 @@
+// Straight-line kernels under construction (internal to the emit stage): a
+// list of indivisible units (one per column or row of a step), each a few
+// statements, with a count of the floating-point operations written.
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "emit/emitter.hpp"
+
+namespace jrgen::emit {
+
+// Functions longer than this many statements are split, so that the compiler
+// never sees one giant basic block (compile time grows faster than linearly).
+inline constexpr std::size_t kMaxStatementsPerFunction = 4000;
+// Sums of more products than this are split into partial sums.
+inline constexpr std::size_t kMaxTermsPerStatement = 8;
+
+/// A product a * b of two named scalars.
+struct Term {
+  std::string a, b;
+};
+
+struct Kernel {
+  struct Unit {
+    std::vector<std::string> lines;
+    std::size_t statements = 0;
+  };
+  std::vector<Unit> units;
+  OpCount ops;
+
+  Unit& unit() { return units.emplace_back(); }
+
+  /// Appends "decl target = (base - sum terms) * scale;" (scale may be empty;
+  /// "target *= scale;" when there are no terms; base may be empty: "-sum").
+  /// Counts len(terms) multiplications and additions (one fewer with no
+  /// base), plus one multiplication for the scale.
+  /// Sums of more than kMaxTermsPerStatement products go through a partial
+  /// sum named `acc`, inside a block when `scoped`.
+  void update(Unit& u, const std::string& indent, const std::string& target, const std::string& base,
+              const std::vector<Term>& terms, const std::string& scale, const std::string& decl = "",
+              const std::string& acc = "s");
+
+  /// Appends "target = sum terms - tail;" (tail may be empty).  Counts
+  /// len(terms) multiplications, len(terms) - 1 additions, plus one for the tail.
+  void assign_sum(Unit& u, const std::string& indent, const std::string& target, const std::vector<Term>& terms,
+                  const std::string& tail);
+
+  /// Functions of at most kMaxStatementsPerFunction statements, and a driver
+  /// `name(params)` calling them in order with `args`.  With `checked`, the
+  /// parts return int (non-zero: stop) and the driver forwards it.  `doc` is
+  /// written as a comment above.  A parameter a function body never indexes
+  /// is cast to void, so tiny models compile under -Wunused-parameter.
+  std::string functions(const std::string& name, const std::string& params, const std::string& args,
+                        bool checked, const std::string& doc) const;
+};
+
+std::vector<std::string> split_lines(const std::string& text);
+
+}  // namespace jrgen::emit

@@ -1,0 +1,467 @@
+#include "emit/loops.hpp"
+
+#include <algorithm>
+#include <map>
+
+#include "analysis/runtime_model.hpp"
+#include "emit/format.hpp"
+#include "emit/kernel.hpp"
+
+namespace jrgen::emit {
+
+namespace {
+
+// One kept constraint row: its cut, its row of the cut type, and where its
+// packed Jacobian (and T) entries start.
+struct Row {
+  int cut = 0;
+  int type_row = 0;   ///< row of the cut type (runtime.hpp order)
+  int t_start = 0;    ///< first packed entry of this row
+};
+
+const char* cut_kind(ir::CutType type) {
+  switch (type) {
+    case ir::CutType::Spherical: return "jr::CutKind::kSpherical";
+    case ir::CutType::Revolute: return "jr::CutKind::kRevolute";
+    case ir::CutType::Prismatic: return "jr::CutKind::kPrismatic";
+    case ir::CutType::Cylindrical: return "jr::CutKind::kCylindrical";
+    case ir::CutType::Universal: return "jr::CutKind::kUniversal";
+    case ir::CutType::Fixed: return "jr::CutKind::kFixed";
+    case ir::CutType::Distance: return "jr::CutKind::kDistance";
+  }
+  return "?";
+}
+
+std::vector<Row> kept_rows(const topology::Tree& t) {
+  std::vector<Row> rows;
+  int start = 0;
+  for (int c = 0; c < static_cast<int>(t.cuts.size()); ++c) {
+    const topology::Cut& cut = t.cuts[c];
+    for (int r : cut.kept_rows) {
+      rows.push_back({c, r, start});
+      start += static_cast<int>(cut.dofs.size());
+    }
+  }
+  return rows;
+}
+
+// Index of dof in a cut's sorted dof list.
+int dof_index(const topology::Cut& cut, int dof) {
+  return static_cast<int>(std::lower_bound(cut.dofs.begin(), cut.dofs.end(), dof) - cut.dofs.begin());
+}
+
+std::string T(const Row& row, const topology::Cut& cut, int dof) {
+  return fmt::format("T[{}]", row.t_start + dof_index(cut, dof));
+}
+
+// The chains of a cut: dofs on the path from k (and from l) to the base.
+std::vector<int> chain(const topology::Tree& t, int body) {
+  std::vector<int> out;
+  for (int d = body >= 0 ? t.bodies[body].v_lem : -1; d >= 0; d = t.dof_parent[d]) out.push_back(d);
+  return out;
+}
+
+// For each dof of the cut (same order as cut.dofs), the dofs of the cut that
+// are its descendants: L[i, v] T[v] can be non-zero only for these (Lemma 3).
+std::vector<std::vector<int>> cut_descendants(const topology::Tree& t, const topology::Cut& cut) {
+  std::vector<std::vector<int>> out(cut.dofs.size());
+  for (const std::vector<int>& ch : {chain(t, cut.body_k), chain(t, cut.body_l)})
+    for (std::size_t a = 0; a < ch.size(); ++a)
+      for (std::size_t b = 0; b < a; ++b) {
+        std::vector<int>& list = out[dof_index(cut, ch[a])];
+        if (std::find(list.begin(), list.end(), ch[b]) == list.end()) list.push_back(ch[b]);
+      }
+  for (std::vector<int>& list : out) std::sort(list.begin(), list.end());
+  return out;
+}
+
+std::string row_label(const topology::Tree& t, const Row& row) {
+  const topology::Cut& cut = t.cuts[row.cut];
+  return fmt::format("loop joint '{}' row {}", comment_text(cut.name), row.type_row + 1);
+}
+
+}  // namespace
+
+int SchurPattern::position(int row, int col) const {
+  if (row == col) return col_start[col];
+  const std::vector<int>& p = pattern[col];
+  return col_start[col] + 1 + static_cast<int>(std::lower_bound(p.begin(), p.end(), row) - p.begin());
+}
+
+SchurPattern schur_pattern(const topology::Tree& t) {
+  const std::vector<Row> rows = kept_rows(t);
+  SchurPattern sp;
+  sp.m = static_cast<int>(rows.size());
+  // Rows of each cut, then cuts sharing each dof: T^T T (r, s) is non-zero
+  // exactly when the cuts of r and s share a dof.
+  std::vector<std::vector<int>> rows_of_cut(t.cuts.size());
+  for (int g = 0; g < sp.m; ++g) rows_of_cut[rows[g].cut].push_back(g);
+  std::vector<std::vector<int>> cuts_of_dof(t.nv);
+  for (int c = 0; c < static_cast<int>(t.cuts.size()); ++c)
+    if (!rows_of_cut[c].empty())
+      for (int d : t.cuts[c].dofs) cuts_of_dof[d].push_back(c);
+  std::vector<std::vector<int>> lower(sp.m);  // structural rows > col
+  {
+    std::vector<std::vector<int>> coupled(t.cuts.size());
+    for (const std::vector<int>& cs : cuts_of_dof)
+      for (int a : cs)
+        for (int b : cs) coupled[a].push_back(b);
+    for (int c = 0; c < static_cast<int>(t.cuts.size()); ++c) {
+      std::sort(coupled[c].begin(), coupled[c].end());
+      coupled[c].erase(std::unique(coupled[c].begin(), coupled[c].end()), coupled[c].end());
+      for (int col : rows_of_cut[c])
+        for (int other : coupled[c])
+          for (int row : rows_of_cut[other])
+            if (row > col) lower[col].push_back(row);
+    }
+    for (std::vector<int>& l : lower) std::sort(l.begin(), l.end());
+  }
+  // Symbolic Cholesky: the pattern of column j is its own rows plus those of
+  // every column whose first off-diagonal row (elimination-tree parent) is j.
+  sp.pattern.assign(sp.m, {});
+  std::vector<std::vector<int>> children(sp.m);
+  for (int j = 0; j < sp.m; ++j) {
+    std::vector<int> p = lower[j];
+    for (int child : children[j]) {
+      std::vector<int> merged;
+      for (int r : sp.pattern[child])
+        if (r > j) merged.push_back(r);
+      std::vector<int> u;
+      std::set_union(p.begin(), p.end(), merged.begin(), merged.end(), std::back_inserter(u));
+      p.swap(u);
+    }
+    sp.pattern[j] = p;
+    if (!p.empty()) children[p.front()].push_back(j);
+  }
+  sp.row_list.assign(sp.m, {});
+  sp.structural.assign(sp.m, {});
+  sp.col_start.assign(sp.m + 1, 0);
+  for (int j = 0; j < sp.m; ++j) {
+    sp.col_start[j + 1] = sp.col_start[j] + 1 + static_cast<int>(sp.pattern[j].size());
+    for (int r : sp.pattern[j]) {
+      sp.row_list[r].push_back(j);
+      sp.structural[j].push_back(std::binary_search(lower[j].begin(), lower[j].end(), r));
+    }
+  }
+  return sp;
+}
+
+LoopCode emit_loops(const topology::Tree& t, const std::vector<std::vector<int>>& desc, Method method) {
+  (void)desc;
+  LoopCode out;
+  const bool ldlt = method == Method::kLDLT;
+  const std::vector<Row> rows = kept_rows(t);
+  const int m = static_cast<int>(rows.size());
+  const int nb = static_cast<int>(t.bodies.size());
+  const std::vector<jr::CutModel> models = analysis::cut_models(t);
+  const int phiq_nnz = rows.empty() ? 0 : rows.back().t_start + static_cast<int>(t.cuts[rows.back().cut].dofs.size());
+  const SchurPattern sp = schur_pattern(t);
+  int phiq_read = 0;  // structurally non-zero Jacobian entries
+
+  // ---- tables ----
+  {
+    std::string s = "// ---- Cut joints (closed loops) -----------------------------------------------\n";
+    s += "// Per cut: name, kind, body k, body l, frame on k (R row-major, p), frame on l,\n"
+         "// axis, child axis, distance, kept-row mask, first row, packed Phiq start, dofs per row.\n";
+    s += fmt::format("constexpr jr::CutModel kCuts[{}] = {{\n", t.cuts.size());
+    for (std::size_t c = 0; c < t.cuts.size(); ++c) {
+      const topology::Cut& cut = t.cuts[c];
+      const jr::CutModel& cm = models[c];
+      auto mat = [](const double* R) {
+        return fmt::format("{{{}, {}, {}, {}, {}, {}, {}, {}, {}}}", num(R[0]), num(R[1]), num(R[2]), num(R[3]),
+                           num(R[4]), num(R[5]), num(R[6]), num(R[7]), num(R[8]));
+      };
+      auto v3 = [](const double* p) { return fmt::format("{{{}, {}, {}}}", num(p[0]), num(p[1]), num(p[2])); };
+      std::string kept;
+      for (int r : cut.kept_rows) kept += fmt::format("{}{}", kept.empty() ? "" : ", ", r + 1);
+      s += fmt::format("// {}: loop joint '{}' ({}), bodies {} and {}, rows kept: {}\n", c, comment_text(cut.name),
+                       ir::cut_type_name(cut.type), cut.body_k, cut.body_l, kept.empty() ? "none" : kept);
+      s += fmt::format("{{{}, {}, {}, {},\n {}, {},\n {}, {},\n {}, {}, {}, {}, {}, {}, {}}},\n", c_string(cut.name),
+                       cut_kind(cut.type), cm.body_k, cm.body_l, mat(cm.R_k), v3(cm.p_k), mat(cm.R_l), v3(cm.p_l),
+                       v3(cm.axis), v3(cm.child_axis), num(cm.distance), cm.row_mask, cm.first_row, cm.phiq_start,
+                       cm.num_dofs);
+    }
+    s += "};\n";
+    s += fmt::format("constexpr jr::ConstraintModel kConstraints = {{{}, {}, {}, kCuts}};\n", t.cuts.size(), m,
+                     phiq_nnz);
+    std::vector<long long> from_dense, packed;
+    for (int g = 0; g < m; ++g) {
+      const topology::Cut& cut = t.cuts[rows[g].cut];
+      for (int idx = 0; idx < cut.num_distinct; ++idx) {
+        packed.push_back(rows[g].t_start + idx);
+        from_dense.push_back(g + static_cast<long long>(m) * t.dof_user[cut.dofs[idx]]);
+      }
+    }
+    phiq_read = static_cast<int>(packed.size());
+    s += "// Packed Phiq[kPhiqPacked[k]] <- dense user-order Phiq[kPhiqFromDense[k]] (column-major):\n"
+         "// the structurally non-zero entries only (Lemma 3 dofs less the common ancestors).\n";
+    s += fmt::format("constexpr std::int32_t kPhiqPacked[{}] = {{ {} }};\n", packed.size(), join_ints(packed));
+    s += fmt::format("constexpr std::int32_t kPhiqFromDense[{}] = {{ {} }};\n", packed.size(), join_ints(from_dense));
+    s += "// Kept constraint row -> the loop joint and row of its type (for diagnostics).\n";
+    s += fmt::format("const char* const kRowLabel[{}] = {{\n", m);
+    for (int g = 0; g < m; ++g) {
+      const topology::Cut& cut = t.cuts[rows[g].cut];
+      s += c_string(fmt::format("loop joint '{}' row {} of {} ({})", cut.name, rows[g].type_row + 1, cut.rows,
+                                ir::cut_type_name(cut.type))) +
+           ",\n";
+    }
+    s += "};";
+    out.tables = s;
+  }
+
+  // ---- workspace ----
+  out.workspace = fmt::format(
+      "thread_local jr::BodyMotion g_motion[{}];\n"
+      "thread_local double g_T[{}];     // packed Phiq, overwritten by T (Step 3.1)\n"
+      "{}"
+      "thread_local double g_gamma[{}];\n"
+      "thread_local double g_W[{}];     // T^T T packed (fill included), factored in place\n"
+      "thread_local double g_Winv[{}];  // inverse pivots of T^T T\n"
+      "thread_local double g_zm[{}];    // z_m (Step 3.2), then lambda (Step 3.4)",
+      nb, phiq_nnz, ldlt ? fmt::format("thread_local double g_V[{}];     // D^-1 U (Step 3.2)\n", phiq_nnz) : "",
+      m, sp.nnz(), m, m);
+
+  // ---- Step 3.1: L T = Phiq^T, only the rows of Lemma 3 ----
+  Kernel k31;
+  for (int g = 0; g < m; ++g) {
+    const Row& row = rows[g];
+    const topology::Cut& cut = t.cuts[row.cut];
+    const std::vector<std::vector<int>> cdesc = cut_descendants(t, cut);
+    Kernel::Unit& u = k31.unit();
+    u.lines.push_back(fmt::format("// column {}: {} ({} dofs on the paths of its bodies, {} of them common)", g,
+                                  row_label(t, row), cut.dofs.size(), cut.dofs.size() - cut.num_distinct));
+    for (std::size_t idx = 0; idx < cut.dofs.size(); ++idx) {
+      const int i = cut.dofs[idx];
+      std::vector<Term> terms;
+      for (int v : cdesc[idx]) terms.push_back({L(t, i, v), T(row, cut, v)});
+      const std::string target = T(row, cut, i);
+      // Common ancestors of k and l: Phiq is exactly zero there.
+      const std::string base = static_cast<int>(idx) < cut.num_distinct ? target : "";
+      if (terms.empty() && base.empty()) {  // (cannot happen: a common dof has descendants on the paths)
+        u.lines.push_back(target + " = 0.0;");
+        ++u.statements;
+      } else if (!ldlt) {
+        k31.update(u, "", target, base, terms, fmt::format("Dinv[{}]", i));
+      } else if (!terms.empty()) {  // unit diagonal: U = Phiq^T where nothing is subtracted
+        k31.update(u, "", target, base, terms, "");
+      }
+    }
+  }
+
+  // ---- Step 3.2: z_m = T^T z_n - gamma (LDLT: V = D^-1 U, z_m = V^T y - gamma) ----
+  Kernel k32;
+  for (int g = 0; g < m; ++g) {
+    const Row& row = rows[g];
+    const topology::Cut& cut = t.cuts[row.cut];
+    Kernel::Unit& u = k32.unit();
+    u.lines.push_back(fmt::format("// row {}: {}", g, row_label(t, row)));
+    std::vector<Term> terms;
+    for (int i : cut.dofs) {
+      const std::string Ti = T(row, cut, i);
+      if (ldlt) {
+        const std::string Vi = "V" + Ti.substr(1);
+        u.lines.push_back(fmt::format("{} = {} * Dinv[{}];", Vi, Ti, i));
+        ++u.statements;
+        k32.ops.mul += 1;
+        terms.push_back({Vi, fmt::format("z[{}]", i)});
+      } else {
+        terms.push_back({Ti, fmt::format("z[{}]", i)});
+      }
+    }
+    k32.assign_sum(u, "", fmt::format("zm[{}]", g), terms, fmt::format("gamma[{}]", g));
+  }
+
+  // ---- Step 3.3: T^T T, only entries whose rows share a dof ----
+  Kernel k33;
+  for (int j = 0; j < m; ++j) {
+    Kernel::Unit& u = k33.unit();
+    u.lines.push_back(fmt::format("// column {}: {}", j, row_label(t, rows[j])));
+    const topology::Cut& cj = t.cuts[rows[j].cut];
+    auto entry = [&](int r) {
+      const topology::Cut& cr = t.cuts[rows[r].cut];
+      std::vector<Term> terms;
+      std::vector<int> common;
+      std::set_intersection(cj.dofs.begin(), cj.dofs.end(), cr.dofs.begin(), cr.dofs.end(), std::back_inserter(common));
+      for (int i : common) {
+        const std::string a = T(rows[r], cr, i), b = T(rows[j], cj, i);
+        terms.push_back({ldlt ? "V" + a.substr(1) : a, b});
+      }
+      return terms;
+    };
+    k33.assign_sum(u, "", fmt::format("W[{}]", sp.position(j, j)), entry(j), "");
+    for (std::size_t e = 0; e < sp.pattern[j].size(); ++e) {
+      const int r = sp.pattern[j][e];
+      const std::string target = fmt::format("W[{}]", sp.position(r, j));
+      if (sp.structural[j][e]) {
+        k33.assign_sum(u, "", target, entry(r), "");
+      } else {
+        u.lines.push_back(target + " = 0.0;  // fill of Step 3.4");
+        ++u.statements;
+      }
+    }
+  }
+
+  // ---- Step 3.4: factor T^T T (packed, fill included) and solve for lambda ----
+  Kernel k34f, k34s;
+  for (int j = 0; j < m; ++j) {
+    Kernel::Unit& u = k34f.unit();
+    u.lines.push_back(fmt::format("// column {}: {}", j, row_label(t, rows[j])));
+    u.lines.push_back("{");
+    const std::string in = "  ";
+    const std::string diag = fmt::format("W[{}]", sp.position(j, j));
+    const std::vector<int>& left = sp.row_list[j];
+    auto Wat = [&](int r, int c) { return fmt::format("W[{}]", sp.position(r, c)); };
+    auto common_left = [&](int r) {
+      std::vector<int> c;
+      std::set_intersection(left.begin(), left.end(), sp.row_list[r].begin(), sp.row_list[r].end(), std::back_inserter(c));
+      return c;
+    };
+    if (!ldlt) {
+      std::vector<Term> sq;
+      for (int i : left) sq.push_back({Wat(j, i), Wat(j, i)});
+      k34f.update(u, in, "d", diag, sq, "", "const double ", "sd");
+      u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return constraints_singular({}, d);", diag, j));
+      u.lines.push_back(in + diag + " = std::sqrt(d);");
+      u.lines.push_back(in + fmt::format("Winv[{}] = 1.0 / {};", j, diag));
+      u.statements += 3;
+      k34f.ops.sqrt += 1;
+      k34f.ops.div += 1;
+      for (int r : sp.pattern[j]) {
+        std::vector<Term> terms;
+        for (int i : common_left(r)) terms.push_back({Wat(j, i), Wat(r, i)});
+        k34f.update(u, in, Wat(r, j), Wat(r, j), terms, fmt::format("Winv[{}]", j));
+      }
+    } else {
+      std::vector<Term> dterms;
+      std::map<int, std::string> w;
+      for (int i : left) {
+        const std::string name = fmt::format("w{}", w.size());
+        u.lines.push_back(in + fmt::format("const double {} = {} * {};", name, Wat(j, i), Wat(i, i)));
+        ++u.statements;
+        k34f.ops.mul += 1;
+        w[i] = name;
+        dterms.push_back({name, Wat(j, i)});
+      }
+      k34f.update(u, in, "d", diag, dterms, "", "const double ", "sd");
+      u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return constraints_singular({}, d);", diag, j));
+      u.lines.push_back(in + diag + " = d;");
+      u.lines.push_back(in + fmt::format("Winv[{}] = 1.0 / d;", j));
+      u.statements += 3;
+      k34f.ops.div += 1;
+      for (int r : sp.pattern[j]) {
+        std::vector<Term> terms;
+        for (int i : common_left(r)) terms.push_back({w[i], Wat(r, i)});
+        k34f.update(u, in, Wat(r, j), Wat(r, j), terms, fmt::format("Winv[{}]", j));
+      }
+    }
+    u.lines.push_back("}");
+  }
+  for (int j = 0; j < m; ++j) {  // forward
+    std::vector<Term> terms;
+    for (int i : sp.row_list[j]) terms.push_back({fmt::format("W[{}]", sp.position(j, i)), fmt::format("zm[{}]", i)});
+    if (ldlt && terms.empty()) continue;
+    Kernel::Unit& u = k34s.unit();
+    u.lines.push_back(fmt::format("// forward, row {}", j));
+    const std::string z = fmt::format("zm[{}]", j);
+    k34s.update(u, "", z, z, terms, ldlt ? "" : fmt::format("Winv[{}]", j));
+  }
+  for (int j = m - 1; j >= 0; --j) {  // backward
+    std::vector<Term> terms;
+    for (int r : sp.pattern[j]) terms.push_back({fmt::format("W[{}]", sp.position(r, j)), fmt::format("zm[{}]", r)});
+    Kernel::Unit& u = k34s.unit();
+    u.lines.push_back(fmt::format("// backward, row {}", j));
+    const std::string z = fmt::format("zm[{}]", j);
+    if (ldlt) {
+      k34s.ops.mul += 1;
+      k34s.update(u, "", z, z + fmt::format(" * Winv[{}]", j), terms, "");
+    } else {
+      k34s.update(u, "", z, z, terms, fmt::format("Winv[{}]", j));
+    }
+  }
+
+  // ---- Step 3.5: y_n = T lambda, subtracted from z_n in place ----
+  Kernel k35;
+  {
+    std::map<int, std::vector<Term>> by_dof;  // ascending dofs
+    for (int g = 0; g < m; ++g) {
+      const topology::Cut& cut = t.cuts[rows[g].cut];
+      for (int i : cut.dofs) by_dof[i].push_back({T(rows[g], cut, i), fmt::format("zm[{}]", g)});
+    }
+    for (const auto& [i, terms] : by_dof) {
+      Kernel::Unit& u = k35.unit();
+      u.lines.push_back(fmt::format("// row {}: {}", i, dof_label(t, i)));
+      const std::string z = fmt::format("z[{}]", i);
+      k35.update(u, "", z, z, terms, "");
+    }
+  }
+
+  // ---- functions ----
+  const std::string U = ldlt ? "U" : "T";
+  std::string s;
+  s += "// Constraint rows whose T^T T pivot fails: the loop joint is named.\n"
+       "int constraints_singular(std::int32_t row, double pivot) {\n"
+       "  std::snprintf(g_error, sizeof g_error,\n"
+       "                \"constraint rows singular (T^T T not positive definite) at %s; pivot %.17g\",\n"
+       "                kRowLabel[row], pivot);\n"
+       "  return kConstraintsSingular;\n"
+       "}\n\n"
+       "int fail_row(int status, const char* what, std::int32_t row, double value) {\n"
+       "  std::snprintf(g_error, sizeof g_error, \"%s at %s, value %.17g\", what, kRowLabel[row], value);\n"
+       "  return status;\n"
+       "}\n\n";
+  s += k31.functions(
+      "step31_solve_T", ldlt ? "const double* L, double* T" : "const double* L, const double* Dinv, double* T",
+      ldlt ? "L, T" : "L, Dinv, T", false,
+      fmt::format("---- Step 3.1: solve L {0} = Phiq^T in place (T holds the packed Phiq on entry). ----\n"
+                  "Lemma 3: the column of row r of cut j is non-zero only at dofs of\n"
+                  "d[k] U d[l]; only those are stored and computed.{1}\n"
+                  "Ops: {2} add, {3} mul, {4} div.",
+                  U, ldlt ? " L has a unit diagonal: U = L^-1 Phiq^T." : "", k31.ops.add, k31.ops.mul, k31.ops.div));
+  s += "\n\n";
+  s += k32.functions(
+      "step32_rhs",
+      ldlt ? "const double* T, const double* Dinv, const double* z, const double* gamma, double* V, double* zm"
+           : "const double* T, const double* z, const double* gamma, double* zm",
+      ldlt ? "T, Dinv, z, gamma, V, zm" : "T, z, gamma, zm", false,
+      fmt::format("---- Step 3.2: z_m = {} ----\nOps: {} add, {} mul, {} div.",
+                  ldlt ? "U^T D^-1 y - gamma, with V = D^-1 U kept for Step 3.3." : "T^T z_n - gamma.", k32.ops.add,
+                  k32.ops.mul, k32.ops.div));
+  s += "\n\n";
+  s += k33.functions(
+      "step33_TtT", ldlt ? "const double* T, const double* V, double* W" : "const double* T, double* W",
+      ldlt ? "T, V, W" : "T, W", false,
+      fmt::format("---- Step 3.3: W = {} (m = {}), packed by columns. ----\n"
+                  "Entry (r, s) is computed only when the cuts of rows r and s share a dof;\n"
+                  "entries that are zero here but filled by Step 3.4 are set to 0.\n"
+                  "Ops: {} add, {} mul, {} div.",
+                  ldlt ? "U^T D^-1 U = V^T U" : "T^T T", m, k33.ops.add, k33.ops.mul, k33.ops.div));
+  s += "\n\n";
+  OpCount k34 = k34f.ops;
+  k34 += k34s.ops;
+  s += k34f.functions(
+      "step34_factor", "double* W, double* Winv", "W, Winv", true,
+      fmt::format("---- Step 3.4 (a): factor W = {} in place, unrolled, fill included. ----\n"
+                  "Ops: {} add, {} mul, {} div, {} sqrt.",
+                  ldlt ? "L_W D_W L_W^T" : "L_W L_W^T", k34f.ops.add, k34f.ops.mul, k34f.ops.div, k34f.ops.sqrt));
+  s += "\n\n";
+  s += k34s.functions("step34_solve", "const double* W, const double* Winv, double* zm", "W, Winv, zm", false,
+                      fmt::format("---- Step 3.4 (b): solve W lambda = z_m in place. ----\n"
+                                  "Ops: {} add, {} mul, {} div.",
+                                  k34s.ops.add, k34s.ops.mul, k34s.ops.div));
+  s += "\n\n";
+  s += k35.functions("step35_update", "const double* T, const double* zm, double* z", "T, zm, z", false,
+                     fmt::format("---- Step 3.5: y_n = {} lambda, subtracted from z_n in place (Step 4 then ----\n"
+                                 "solves with z_n - y_n). Only rows of dofs some cut reaches.\n"
+                                 "Ops: {} add, {} mul, {} div.",
+                                 U, k35.ops.add, k35.ops.mul, k35.ops.div));
+  out.step3 = s;
+  out.call_args["step31_args"] = ldlt ? "g_L, g_T" : "g_L, g_Dinv, g_T";
+  out.call_args["step32_args"] = ldlt ? "g_T, g_Dinv, g_z, g_gamma, g_V, g_zm" : "g_T, g_z, g_gamma, g_zm";
+  out.call_args["step33_args"] = ldlt ? "g_T, g_V, g_W" : "g_T, g_W";
+  out.call_args["step35_args"] = "g_T, g_zm, g_z";
+  out.call_args["phiq_read"] = std::to_string(phiq_read);
+  out.ops = {{"3.1", k31.ops}, {"3.2", k32.ops}, {"3.3", k33.ops}, {"3.4", k34}, {"3.5", k35.ops}};
+  return out;
+}
+
+}  // namespace jrgen::emit

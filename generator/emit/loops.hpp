@@ -1,0 +1,41 @@
+// Emit stage, closed loops: the constraint tables and the straight-line code
+// of Step 3 (3.1-3.5) of the algorithm of Section 4.3, for trees with cut
+// joints whose kept rows are known (analysis::analyze_constraints).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "emit/emitter.hpp"
+#include "emit/template.hpp"
+
+namespace jrgen::emit {
+
+/// The symbolic structure of T^T T (m x m, kept rows in cut order) and of its
+/// Cholesky factor: column j holds the diagonal, then the rows of pattern[j]
+/// (ascending, fill included).
+struct SchurPattern {
+  int m = 0;
+  std::vector<std::vector<int>> pattern;   ///< rows below the diagonal, per column
+  std::vector<std::vector<int>> row_list;  ///< columns left of the diagonal, per row
+  std::vector<int> col_start;              ///< packed column starts (m + 1)
+  std::vector<std::vector<bool>> structural;  ///< per column, per pattern entry: non-zero in T^T T (else fill)
+  int position(int row, int col) const;    ///< packed index of (row >= col)
+  int nnz() const { return col_start.empty() ? 0 : col_start.back(); }
+};
+
+/// Entry (r, s) of T^T T is structurally non-zero when the cuts of rows r and
+/// s share a dof (Lemma 3); the factor's fill follows by symbolic elimination.
+SchurPattern schur_pattern(const topology::Tree& tree);
+
+struct LoopCode {
+  std::string tables;     ///< constraint tables (namespace scope)
+  std::string workspace;  ///< thread_local buffers
+  std::string step3;      ///< the functions of Steps 3.1-3.5 and their helpers
+  TemplateValues call_args;  ///< arguments of the Step 3 calls in api_loops.cpp.tmpl
+  std::vector<StepOps> ops;  ///< "3.1" .. "3.5"
+};
+
+LoopCode emit_loops(const topology::Tree& tree, const std::vector<std::vector<int>>& descendants, Method method);
+
+}  // namespace jrgen::emit
