@@ -8,6 +8,7 @@
 
 #include <tinyxml.h>
 
+#include "common/random_cuts.hpp"
 #include "common/random_model.hpp"
 
 #ifndef JRGEN_SOURCE_DIR
@@ -109,6 +110,42 @@ std::vector<ModelCase> random_trees() {
     o.max_depth = 4;
     out.push_back({"random_depth4_" + std::to_string(n), random_tree_urdf(o)});
   }
+  return out;
+}
+
+std::vector<ModelCase> loop_models() {
+  std::vector<ModelCase> out;
+  const fs::path models = fs::path(JRGEN_SOURCE_DIR) / "models";
+  for (const fs::path& p : sorted_urdfs(models)) {
+    std::string text = read_text(p.string());
+    fs::path cuts = p;
+    cuts.replace_extension(".cuts.xml");
+    const bool has_file = fs::exists(cuts);
+    if (!has_file && text.find("<loop_joint") == std::string::npos) continue;
+    out.push_back({"loops_" + p.stem().string(), std::move(text), has_file ? read_text(cuts.string()) : ""});
+  }
+  // Random trees with random cuts; seeds 1..7 start the type cycle at every
+  // cut type, so each type appears first somewhere.
+  const int sizes[] = {4, 6, 9, 12, 20, 35, 60};
+  for (std::uint64_t seed = 1; seed <= 7; ++seed) {
+    RandomTreeOptions o;
+    o.seed = 100 + seed;
+    o.num_bodies = sizes[seed - 1];
+    o.floating_base = seed % 3 == 0;
+    const std::string urdf = random_tree_urdf(o);
+    RandomCutOptions co;
+    co.seed = seed;
+    co.num_cuts = 1 + static_cast<int>(seed % 3);
+    out.push_back({"loops_random_" + std::to_string(o.num_bodies) + "_seed" + std::to_string(seed), urdf,
+                   random_cuts_xml(urdf, co)});
+  }
+  return out;
+}
+
+std::vector<ModelCase> all_models() {
+  std::vector<ModelCase> out = all_tree_models();
+  std::vector<ModelCase> more = loop_models();
+  out.insert(out.end(), more.begin(), more.end());
   return out;
 }
 

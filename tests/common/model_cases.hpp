@@ -14,6 +14,7 @@ namespace jrgen::testing {
 struct ModelCase {
   std::string name;  ///< short, usable as a test name
   std::string urdf;  ///< URDF text
+  std::string cuts;  ///< --cuts file text, or empty
 };
 
 /// models/*.urdf that are trees (no <loop_joint>), read from JRGEN_SOURCE_DIR.
@@ -24,6 +25,14 @@ std::vector<ModelCase> external_models();
 std::vector<ModelCase> random_trees();
 /// All of the above.
 std::vector<ModelCase> all_tree_models();
+
+/// Closed-loop models: models/ with their cuts (hmmwv14, fourbar,
+/// slider_crank, stewart), and seeded random trees with random cut joints of
+/// every type.
+std::vector<ModelCase> loop_models();
+
+/// Trees and loops.
+std::vector<ModelCase> all_models();
 
 /// Gives every link without mass a 10 g, 1e-6 kg m^2 <inertial>.
 std::string give_massless_links_inertia(const std::string& urdf);

@@ -1,6 +1,6 @@
-// write_test_model NAME OUT.urdf: writes the test model case NAME
-// (tests/common/model_cases) to a file, so that the build can generate a
-// solver for exactly the URDF text the tests compare against.
+// write_test_model NAME OUT.urdf [OUT.cuts.xml]: writes the test model case
+// NAME (tests/common/model_cases) to files, so that the build can generate a
+// solver for exactly the text the tests compare against.
 #include <cstdio>
 #include <fstream>
 #include <string>
@@ -8,15 +8,20 @@
 #include "common/model_cases.hpp"
 
 int main(int argc, char** argv) {
-  if (argc != 3) {
-    std::fprintf(stderr, "usage: write_test_model NAME OUT.urdf\n");
+  if (argc != 3 && argc != 4) {
+    std::fprintf(stderr, "usage: write_test_model NAME OUT.urdf [OUT.cuts.xml]\n");
     return 2;
   }
   const std::string name = argv[1];
-  for (const jrgen::testing::ModelCase& c : jrgen::testing::all_tree_models()) {
+  for (const jrgen::testing::ModelCase& c : jrgen::testing::all_models()) {
     if (c.name != name) continue;
     std::ofstream out(argv[2], std::ios::binary);
     out << c.urdf;
+    if (argc == 4) {
+      std::ofstream cuts(argv[3], std::ios::binary);
+      cuts << c.cuts;
+      if (!cuts) return 1;
+    }
     return out ? 0 : 1;
   }
   std::fprintf(stderr, "write_test_model: no model case named '%s'\n", name.c_str());

@@ -21,6 +21,9 @@ struct GeneratedSolver {
   int (*solve_augmented)(const double*, const double*, const double*, const double*, double*, double*);
   void (*mass_matrix)(const double*, double*);
   void (*bias_forces)(const double*, const double*, double*);
+  void (*constraints)(const double*, double*);
+  void (*constraint_jacobian)(const double*, double*);
+  void (*constraint_gamma)(const double*, const double*, double*);
   const char* (*last_error)();
 };
 
