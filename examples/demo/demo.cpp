@@ -14,24 +14,51 @@
 
 namespace {
 
-// Random state: joint angles in [-0.3, 0.3], unit quaternions near identity.
+// q <- q "+" dv along velocity coordinates (INTERFACE.md section 3): plain
+// addition, quaternions by the exponential map of the angular part.
+void integrate(Eigen::VectorXd& q, const Eigen::VectorXd& dv) {
+  for (int j = 0; j < demo::njoints; ++j) {
+    const int q0 = demo::joint_q_index[j], v0 = demo::joint_v_index[j];
+    const int q1 = j + 1 < demo::njoints ? demo::joint_q_index[j + 1] : demo::nq;
+    const int v1 = j + 1 < demo::njoints ? demo::joint_v_index[j + 1] : demo::nv;
+    if (q1 - q0 == v1 - v0) {
+      q.segment(q0, q1 - q0) += dv.segment(v0, v1 - v0);
+      continue;
+    }
+    // ball (4/3) or floating (7/6: translation first): quaternion last.
+    q.segment(q0, q1 - q0 - 4) += dv.segment(v0, v1 - v0 - 3);
+    const Eigen::Vector3d w = dv.segment<3>(v1 - 3);
+    Eigen::Quaterniond quat(q[q1 - 4], q[q1 - 3], q[q1 - 2], q[q1 - 1]);
+    if (w.norm() > 0) quat = quat * Eigen::Quaterniond(Eigen::AngleAxisd(w.norm(), w.normalized()));
+    quat.normalize();
+    q.segment<4>(q1 - 4) << quat.w(), quat.x(), quat.y(), quat.z();
+  }
+}
+
+// A random assembled state: the zero configuration moved by a random step,
+// then Newton-projected onto Phi(q) = 0; v random with Phiq v = 0.
 void random_state(std::mt19937_64& rng, Eigen::VectorXd& q, Eigen::VectorXd& v, Eigen::VectorXd& tau) {
   std::uniform_real_distribution<double> u(-0.3, 0.3);
   q = Eigen::VectorXd::Zero(demo::nq);
   for (int j = 0; j < demo::njoints; ++j) {
-    const int q0 = demo::joint_q_index[j];
     const int q1 = j + 1 < demo::njoints ? demo::joint_q_index[j + 1] : demo::nq;
-    const int v0 = demo::joint_v_index[j];
     const int v1 = j + 1 < demo::njoints ? demo::joint_v_index[j + 1] : demo::nv;
-    const int nq_j = q1 - q0, nv_j = v1 - v0;
-    for (int k = 0; k < nq_j; ++k) q[q0 + k] = u(rng);
-    if (nq_j > nv_j) {  // ball (4/3) or floating (7/6): the last four are a quaternion
-      Eigen::Vector4d quat(1.0, u(rng), u(rng), u(rng));
-      q.segment<4>(q1 - 4) = quat.normalized();
-    }
+    if (q1 - demo::joint_q_index[j] != v1 - demo::joint_v_index[j]) q[q1 - 4] = 1.0;  // identity quaternion
   }
+  integrate(q, Eigen::VectorXd::NullaryExpr(demo::nv, [&] { return 0.1 * u(rng); }));
   v = Eigen::VectorXd::NullaryExpr(demo::nv, [&] { return u(rng); });
   tau = Eigen::VectorXd::NullaryExpr(demo::nv, [&] { return 10.0 * u(rng); });
+  if (demo::nc == 0) return;
+  Eigen::VectorXd phi(demo::nc);
+  Eigen::MatrixXd J(demo::nc, demo::nv);
+  for (int it = 0; it < 50; ++it) {
+    demo::constraints(q.data(), phi.data());
+    if (phi.cwiseAbs().maxCoeff() < 1e-12) break;
+    demo::constraint_jacobian(q.data(), J.data());
+    integrate(q, -J.completeOrthogonalDecomposition().solve(phi));
+  }
+  demo::constraint_jacobian(q.data(), J.data());
+  v -= J.transpose() * (J * J.transpose()).ldlt().solve(J * v);
 }
 
 template <typename F>
@@ -50,7 +77,7 @@ double median_ns(F&& f, int calls) {
 }  // namespace
 
 int main() {
-  std::printf("jrgen demo: %s\n", JRGEN_DEMO_MODEL);
+  std::printf("jrgen demo: %s%s%s\n", JRGEN_DEMO_MODEL, JRGEN_DEMO_CUTS[0] ? " + " : "", JRGEN_DEMO_CUTS);
   std::printf("  nq = %d, nv = %d, nc = %d, joints = %d\n", demo::nq, demo::nv, demo::nc, demo::njoints);
 
   std::mt19937_64 rng(1);
