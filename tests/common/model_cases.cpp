@@ -124,6 +124,20 @@ std::vector<ModelCase> loop_models() {
     if (!has_file && text.find("<loop_joint") == std::string::npos) continue;
     out.push_back({"loops_" + p.stem().string(), std::move(text), has_file ? read_text(cuts.string()) : ""});
   }
+  // The four-bar without <dynamics damping>: a conservative closed loop, for
+  // the energy test (tests/generated/energy_test.cpp).
+  {
+    TiXmlDocument doc;
+    const std::string text = read_text((models / "fourbar.urdf").string());
+    doc.Parse(text.c_str());
+    if (doc.Error()) throw std::runtime_error(std::string("fourbar.urdf: ") + doc.ErrorDesc());
+    for (TiXmlElement* joint = doc.RootElement()->FirstChildElement("joint"); joint;
+         joint = joint->NextSiblingElement("joint"))
+      while (TiXmlElement* dynamics = joint->FirstChildElement("dynamics")) joint->RemoveChild(dynamics);
+    TiXmlPrinter printer;
+    doc.Accept(&printer);
+    out.push_back({"loops_fourbar_conservative", printer.CStr(), ""});
+  }
   // Random trees with random cuts; seeds 1..7 start the type cycle at every
   // cut type, so each type appears first somewhere.
   const int sizes[] = {4, 6, 9, 12, 20, 35, 60};

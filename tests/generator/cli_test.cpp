@@ -639,9 +639,16 @@ std::vector<std::string> table_cells(const std::string& line) {
 // shape is wrong.
 void parse_report(const std::string& report, OpTable* table) {
   const std::vector<std::string> lines = split_lines(report);
+  // This model's table comes first; the paper's reference tables follow
+  // under "## Reference" and must carry its Alg-S totals.
   std::vector<std::string> table_lines;
-  for (const std::string& l : lines)
-    if (!l.empty() && l.front() == '|') table_lines.push_back(l);
+  bool reference = false;
+  for (const std::string& l : lines) {
+    if (l.rfind("## Reference", 0) == 0) reference = true;
+    if (!reference && !l.empty() && l.front() == '|') table_lines.push_back(l);
+  }
+  EXPECT_TRUE(reference) << "no reference section with the paper's tables\n" << report;
+  EXPECT_NE(report.find("| A | 975 | 165 | 708 | 172 | 834 | 680 | 145 | 192 | 3871 |"), std::string::npos);
   ASSERT_EQ(table_lines.size(), 6u) << "one table: header, separator, rows A, M, D, SQ\n" << report;
   const std::vector<std::string> header = table_cells(table_lines[0]);
   const std::vector<std::string> expected_header = {"", "1", "2", "3.1", "3.2", "3.3", "3.4", "3.5", "4", "Total"};
@@ -945,6 +952,79 @@ TEST(CliReportByHand, RecountCountsWhatItShould) {
   EXPECT_EQ(rc.mul, 3);
   EXPECT_EQ(rc.div, 2);
   EXPECT_EQ(rc.sqrt, 1);
+}
+
+// ===========================================================================
+// Closed loops: notes and errors of the constraint analysis (INTERFACE.md
+// section 2; fixtures in tests/cli/)
+// ===========================================================================
+
+const fs::path kFourbar = kModelsDir / "fourbar.urdf";
+
+// The planar four-bar closed by a 3-D revolute cut: 3 of the 5 rows are
+// redundant, dropped with one note naming the file, the loop joint's line and
+// the loop joint; the solver is still written.
+TEST(CliLoops, FourbarRedundantRowsAreANote) {
+  const int line = line_of(kFourbar, "<loop_joint name=\"joint_D\"");
+  ASSERT_GT(line, 0);
+  ScratchDir scratch("jrgen_cli");
+  const RunResult r = run_jrgen({kFourbar.string(), "-o", (scratch / "solver.cpp").string()}, scratch.path());
+  SCOPED_TRACE(r.command);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out, "");
+  EXPECT_TRUE(fs::exists(scratch / "solver.cpp"));
+  EXPECT_TRUE(fs::exists(scratch / "solver.hpp"));
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "expected exactly one note:\n" << r.err;
+  EXPECT_TRUE(ends_with(r.err, "\n")) << r.err;
+  EXPECT_EQ(r.err.rfind("jrgen: note:", 0), 0u) << r.err;
+  EXPECT_TRUE(contains(r.err, "fourbar.urdf:" + std::to_string(line) + ":")) << r.err;
+  EXPECT_TRUE(contains(r.err, kFourbar.string() + ":" + std::to_string(line) + ":")) << r.err;
+  EXPECT_TRUE(contains(r.err, "'joint_D'")) << r.err;
+  EXPECT_TRUE(contains(r.err, "3 of its 5 rows")) << r.err;
+  EXPECT_TRUE(contains(slurp(scratch / "solver.hpp"), "inline constexpr int nc = 2;"));
+}
+
+TEST(CliLoops, FourbarStrictConstraintsIsAnError) {
+  const int line = line_of(kFourbar, "<loop_joint name=\"joint_D\"");
+  ASSERT_GT(line, 0);
+  expect_clean_failure({{kFourbar.string(), "-o", "@OUT@/solver.cpp", "--strict-constraints"},
+                        {kFourbar.string() + ":" + std::to_string(line) + ":", "'joint_D'", "redundant"},
+                        {}});
+  // The option may come first as well.
+  expect_clean_failure({{"--strict-constraints", kFourbar.string(), "-o", "@OUT@/solver.cpp"},
+                        {"'joint_D'", "redundant"},
+                        {}});
+}
+
+// A loop no configuration closes: the tip of a 1 m arm asked to reach 2 m.
+TEST(CliLoops, InconsistentLoopCannotBeClosed) {
+  const fs::path model = kCliDir / "inconsistent_loop.urdf";
+  const int line = line_of(model, "<loop_joint name=\"too_far\"");
+  ASSERT_GT(line, 0);
+  expect_clean_failure({{model.string(), "-o", "@OUT@/solver.cpp", "--report", "@OUT@/OPS.md"},
+                        {model.string() + ":" + std::to_string(line) + ":", "'too_far'", "cannot be closed"},
+                        {}});
+}
+
+// A distance cut without <distance value> whose frames coincide at the zero
+// configuration: the default distance would be 0.
+TEST(CliLoops, DistanceCutWithCoincidentFramesNeedsAValue) {
+  const fs::path model = kCliDir / "coincident_distance.urdf";
+  const int line = line_of(model, "<loop_joint name=\"rod\"");
+  ASSERT_GT(line, 0);
+  expect_clean_failure({{model.string(), "-o", "@OUT@/solver.cpp"},
+                        {model.string() + ":" + std::to_string(line) + ":", "'rod'", "<distance"},
+                        {}});
+}
+
+// A cut between two links welded by a fixed joint constrains nothing.
+TEST(CliLoops, CutWithinOneRigidBody) {
+  const fs::path model = kCliDir / "same_body_loop.urdf";
+  const int line = line_of(model, "<loop_joint name=\"useless\"");
+  ASSERT_GT(line, 0);
+  expect_clean_failure({{model.string(), "-o", "@OUT@/solver.cpp"},
+                        {model.string() + ":" + std::to_string(line) + ":", "'useless'"},
+                        {}});
 }
 
 }  // namespace

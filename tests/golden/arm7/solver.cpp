@@ -114,7 +114,7 @@ int not_positive_definite(std::int32_t dof_lem, double pivot) {
 // Lemma 2: no fill-in; column j reads only rows of its descendants
 // and writes only rows of its ancestors. Dinv[j] = 1 / pivot j.
 // Ops: 56 add, 77 mul, 7 div, 7 sqrt.
-int step1_factor(double* L, double* Dinv) {
+int step1_factor(double* __restrict L, double* __restrict Dinv) {
   // column 0: joint 'joint_7'; 0 descendant(s), 6 ancestor row(s)
   {
     const double d = L[0];
@@ -191,7 +191,7 @@ int step1_factor(double* L, double* Dinv) {
 // ---- Step 2: solve L z = Q (forward substitution), Remark 2: ----
 // row j sums over the family F(j) only.
 // Ops: 21 add, 28 mul, 0 div.
-void step2_forward(const double* L, const double* Dinv, double* z) {
+void step2_forward(const double* __restrict L, const double* __restrict Dinv, double* __restrict z) {
   // row 0: joint 'joint_7'
   z[0] *= Dinv[0];
   // row 1: joint 'joint_6'
@@ -211,7 +211,7 @@ void step2_forward(const double* L, const double* Dinv, double* z) {
 // ---- Step 4: solve L^T qdd = z (back substitution), Remark 2: ----
 // row j sums over the ancestors of j only.
 // Ops: 21 add, 28 mul, 0 div.
-void step4_backward(const double* L, const double* Dinv, double* z) {
+void step4_backward(const double* __restrict L, const double* __restrict Dinv, double* __restrict z) {
   // row 6: joint 'joint_1'
   z[6] *= Dinv[6];
   // row 5: joint 'joint_2'

@@ -176,7 +176,7 @@ int not_positive_definite(std::int32_t dof_lem, double pivot) {
 // Lemma 2: no fill-in; column j reads only rows of its descendants
 // and writes only rows of its ancestors. Dinv[j] = 1 / pivot j.
 // Ops: 660 add, 825 mul, 27 div, 27 sqrt.
-int step1_factor(double* L, double* Dinv) {
+int step1_factor(double* __restrict L, double* __restrict Dinv) {
   // column 0: joint 'rf_upper_ball' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
     const double d = L[0];
@@ -633,7 +633,7 @@ int step1_factor(double* L, double* Dinv) {
 // ---- Step 2: solve L z = Q (forward substitution), Remark 2: ----
 // row j sums over the family F(j) only.
 // Ops: 165 add, 192 mul, 0 div.
-void step2_forward(const double* L, const double* Dinv, double* z) {
+void step2_forward(const double* __restrict L, const double* __restrict Dinv, double* __restrict z) {
   // row 0: joint 'rf_upper_ball' (coordinate 1 of 3)
   z[0] *= Dinv[0];
   // row 1: joint 'rf_upper_ball' (coordinate 2 of 3)
@@ -725,7 +725,7 @@ void step2_forward(const double* L, const double* Dinv, double* z) {
 // ---- Step 4: solve L^T qdd = z (back substitution), Remark 2: ----
 // row j sums over the ancestors of j only.
 // Ops: 165 add, 192 mul, 0 div.
-void step4_backward(const double* L, const double* Dinv, double* z) {
+void step4_backward(const double* __restrict L, const double* __restrict Dinv, double* __restrict z) {
   // row 26: joint 'chassis_floating' (coordinate 6 of 6)
   z[26] *= Dinv[26];
   // row 25: joint 'chassis_floating' (coordinate 5 of 6)

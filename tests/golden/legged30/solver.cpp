@@ -185,7 +185,7 @@ int not_positive_definite(std::int32_t dof_lem, double pivot) {
 // Lemma 2: no fill-in; column j reads only rows of its descendants
 // and writes only rows of its ancestors. Dinv[j] = 1 / pivot j.
 // Ops: 995 add, 1210 mul, 30 div, 30 sqrt.
-int step1_factor(double* L, double* Dinv) {
+int step1_factor(double* __restrict L, double* __restrict Dinv) {
   // column 0: joint 'neck' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
     const double d = L[0];
@@ -751,7 +751,7 @@ int step1_factor(double* L, double* Dinv) {
 // ---- Step 2: solve L z = Q (forward substitution), Remark 2: ----
 // row j sums over the family F(j) only.
 // Ops: 215 add, 245 mul, 0 div.
-void step2_forward(const double* L, const double* Dinv, double* z) {
+void step2_forward(const double* __restrict L, const double* __restrict Dinv, double* __restrict z) {
   // row 0: joint 'neck' (coordinate 1 of 3)
   z[0] *= Dinv[0];
   // row 1: joint 'neck' (coordinate 2 of 3)
@@ -856,7 +856,7 @@ void step2_forward(const double* L, const double* Dinv, double* z) {
 // ---- Step 4: solve L^T qdd = z (back substitution), Remark 2: ----
 // row j sums over the ancestors of j only.
 // Ops: 215 add, 245 mul, 0 div.
-void step4_backward(const double* L, const double* Dinv, double* z) {
+void step4_backward(const double* __restrict L, const double* __restrict Dinv, double* __restrict z) {
   // row 29: joint 'floating_base' (coordinate 6 of 6)
   z[29] *= Dinv[29];
   // row 28: joint 'floating_base' (coordinate 5 of 6)
