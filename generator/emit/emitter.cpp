@@ -210,9 +210,27 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
   const int nb = static_cast<int>(t.bodies.size());
   const std::vector<std::vector<int>> desc = t.descendants();
 
-  const Kernel k1 = step1(t, desc, options.method);
-  const Kernel k2 = step2(t, desc, options.method);
-  const Kernel k4 = step4(t, options.method);
+  // Shape of Steps 1, 2 and 4: straight-line code while it stays small
+  // enough to compile quickly; beyond that, the runtime's loops over the same
+  // packed layout (same arithmetic, no fill-in either way).
+  long long products = 0, chain = 0;
+  for (int j = 0; j < t.nv; ++j) {
+    const long long k = t.dof_depth[j];
+    products += k * (k + 1) / 2;
+    chain += k;
+  }
+  const bool unrolled = products <= kMaxUnrolledProducts;
+  Kernel k1, k2, k4;
+  if (unrolled) {
+    k1 = step1(t, desc, options.method);
+    k2 = step2(t, desc, options.method);
+    k4 = step4(t, options.method);
+  } else {
+    const bool l = options.method == Method::kLDLT;
+    k1.ops = {products, products + (l ? 2 : 1) * chain, t.nv, l ? 0 : t.nv};
+    k2.ops = {chain, chain + (l ? 0 : t.nv), 0, 0};
+    k4.ops = {chain, chain + t.nv, 0, 0};
+  }
 
   const bool gravity = !options.gravity.isZero(0.0);
   bool damping = false;
@@ -286,30 +304,66 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
 
   const std::string method_note =
       options.method == Method::kLLT ? "M = L L^T" : "M = L D L^T, D on the diagonal of L";
-  v["step1"] = k1.functions(
-      "step1_factor", "double* L, double* Dinv", "L, Dinv", true,
-      fmt::format("---- Step 1: factor {} in place (packed), eq. (25)-(26). ----\n"
-                  "Lemma 2: no fill-in; column j reads only rows of its descendants\n"
-                  "and writes only rows of its ancestors. Dinv[j] = 1 / pivot j.\n"
-                  "Ops: {} add, {} mul, {} div, {} sqrt.",
-                  method_note, k1.ops.add, k1.ops.mul, k1.ops.div, k1.ops.sqrt));
   // With L D L^T the forward solve has a unit diagonal and needs no Dinv.
   const bool ldlt = options.method == Method::kLDLT;
   v["step2_args"] = ldlt ? "g_L, g_z" : "g_L, g_Dinv, g_z";
-  v["step2"] = k2.functions(
-      "step2_forward", ldlt ? "const double* L, double* z" : "const double* L, const double* Dinv, double* z",
-      ldlt ? "L, z" : "L, Dinv, z", false,
-      fmt::format("---- Step 2: solve L z = Q (forward substitution), Remark 2: ----\n"
-                  "row j sums over the family F(j) only.{}\n"
-                  "Ops: {} add, {} mul, {} div.",
-                  options.method == Method::kLDLT ? " Unit diagonal; D^-1 is applied in Step 4." : "",
-                  k2.ops.add, k2.ops.mul, k2.ops.div));
-  v["step4"] = k4.functions(
-      "step4_backward", "const double* L, const double* Dinv, double* z", "L, Dinv, z", false,
-      fmt::format("---- Step 4: solve L^T qdd = z (back substitution), Remark 2: ----\n"
-                  "row j sums over the ancestors of j only.\n"
-                  "Ops: {} add, {} mul, {} div.",
-                  k4.ops.add, k4.ops.mul, k4.ops.div));
+  if (!unrolled) {
+    auto as_comment = [](const std::string& text) {
+      std::string out;
+      for (const std::string& line : split_lines(text)) out += (out.empty() ? "// " : "\n// ") + line;
+      return out;
+    };
+    const std::string why = fmt::format(
+        "Unrolled, Step 1 alone would hold {} products (more than {}), too large to\n"
+        "compile quickly: the runtime's loops over the same packed layout do the\n"
+        "same arithmetic (Lemma 2: no fill-in; only ancestor rows are touched).",
+        products, kMaxUnrolledProducts);
+    const char* flag = ldlt ? "true" : "false";
+    v["step1"] = fmt::format(
+        "// ---- Step 1: factor {} in place (packed), eq. (25)-(26), table-driven. ----\n{}\n"
+        "// Ops: {} add, {} mul, {} div, {} sqrt.\n"
+        "int step1_factor(double* L, double* Dinv) {{\n"
+        "  double pivot = 0.0;\n"
+        "  const std::int32_t j = jr::factor_packed(kModel, L, Dinv, {}, kPivotTolerance, &pivot);\n"
+        "  return j < 0 ? 0 : not_positive_definite(j, pivot);\n"
+        "}}",
+        method_note, as_comment(why),
+        k1.ops.add, k1.ops.mul, k1.ops.div, k1.ops.sqrt, flag);
+    v["step2"] = fmt::format(
+        "// ---- Step 2: solve L z = Q (forward substitution), Remark 2, table-driven. ----\n"
+        "// Ops: {} add, {} mul, {} div.\n"
+        "void step2_forward(const double* L, {}double* z) {{ jr::forward_packed(kModel, L, {}, {}, z); }}",
+        k2.ops.add, k2.ops.mul, k2.ops.div, ldlt ? "" : "const double* Dinv, ", ldlt ? "nullptr" : "Dinv", flag);
+    v["step4"] = fmt::format(
+        "// ---- Step 4: solve L^T qdd = z (back substitution), Remark 2, table-driven. ----\n"
+        "// Ops: {} add, {} mul, {} div.\n"
+        "void step4_backward(const double* L, const double* Dinv, double* z) {{\n"
+        "  jr::backward_packed(kModel, L, Dinv, {}, z);\n"
+        "}}",
+        k4.ops.add, k4.ops.mul, k4.ops.div, flag);
+  } else {
+    v["step1"] = k1.functions(
+        "step1_factor", "double* L, double* Dinv", "L, Dinv", true,
+        fmt::format("---- Step 1: factor {} in place (packed), eq. (25)-(26). ----\n"
+                    "Lemma 2: no fill-in; column j reads only rows of its descendants\n"
+                    "and writes only rows of its ancestors. Dinv[j] = 1 / pivot j.\n"
+                    "Ops: {} add, {} mul, {} div, {} sqrt.",
+                    method_note, k1.ops.add, k1.ops.mul, k1.ops.div, k1.ops.sqrt));
+    v["step2"] = k2.functions(
+        "step2_forward", ldlt ? "const double* L, double* z" : "const double* L, const double* Dinv, double* z",
+        ldlt ? "L, z" : "L, Dinv, z", false,
+        fmt::format("---- Step 2: solve L z = Q (forward substitution), Remark 2: ----\n"
+                    "row j sums over the family F(j) only.{}\n"
+                    "Ops: {} add, {} mul, {} div.",
+                    options.method == Method::kLDLT ? " Unit diagonal; D^-1 is applied in Step 4." : "",
+                    k2.ops.add, k2.ops.mul, k2.ops.div));
+    v["step4"] = k4.functions(
+        "step4_backward", "const double* L, const double* Dinv, double* z", "L, Dinv, z", false,
+        fmt::format("---- Step 4: solve L^T qdd = z (back substitution), Remark 2: ----\n"
+                    "row j sums over the ancestors of j only.\n"
+                    "Ops: {} add, {} mul, {} div.",
+                    k4.ops.add, k4.ops.mul, k4.ops.div));
+  }
 
   // The API: a tree gets no constraint code at all.
   TemplateValues api;

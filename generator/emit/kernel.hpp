@@ -14,6 +14,10 @@ namespace jrgen::emit {
 // Functions longer than this many statements are split, so that the compiler
 // never sees one giant basic block (compile time grows faster than linearly).
 inline constexpr std::size_t kMaxStatementsPerFunction = 4000;
+// Models whose unrolled Step 1 would hold more products than this get the
+// runtime's table-driven loops for Steps 1, 2 and 4 instead (compile time
+// and source size; see docs/benchmarks.md for the measurements).
+inline constexpr long long kMaxUnrolledProducts = 200000;
 // Sums of more products than this are split into partial sums.
 inline constexpr std::size_t kMaxTermsPerStatement = 8;
 

@@ -659,6 +659,74 @@ void unpack_constraint_jacobian(const Model& model, const ConstraintModel& cm, c
   }
 }
 
+std::int32_t factor_packed(const Model& model, double* L, double* Dinv, bool ldlt, double pivot_tolerance,
+                           double* pivot) {
+  const std::int32_t* start = model.M_col_start;
+  const std::int32_t* parent = model.dof_parent;
+  // Dinv[j] keeps M[j, j] until column j is reached (the pivot test is
+  // relative to it, as in the straight-line code).
+  for (std::int32_t j = 0; j < model.nv; ++j) Dinv[j] = L[start[j]];
+  for (std::int32_t j = 0; j < model.nv; ++j) {
+    const std::int32_t cj = start[j];
+    const std::int32_t len = start[j + 1] - cj;  // 1 + number of ancestors
+    const double d = L[cj];
+    if (!(d > pivot_tolerance * Dinv[j])) {
+      *pivot = d;
+      return j;
+    }
+    double* col = L + cj + 1;  // ancestor rows of column j
+    if (ldlt) {
+      const double dinv = 1.0 / d;
+      Dinv[j] = dinv;
+      // Update ancestor columns with w = L[r, j] (unscaled) then scale.
+      std::int32_t s = parent[j];
+      for (std::int32_t a = 0; a < len - 1; ++a, s = parent[s]) {
+        const double f = col[a] * dinv;  // L[s, j] after scaling
+        double* cs = L + start[s];
+        for (std::int32_t b = a; b < len - 1; ++b) cs[b - a] -= col[b] * f;
+      }
+      for (std::int32_t a = 0; a < len - 1; ++a) col[a] *= dinv;
+    } else {
+      const double l = std::sqrt(d);
+      L[cj] = l;
+      const double linv = 1.0 / l;
+      Dinv[j] = linv;
+      for (std::int32_t a = 0; a < len - 1; ++a) col[a] *= linv;
+      std::int32_t s = parent[j];
+      for (std::int32_t a = 0; a < len - 1; ++a, s = parent[s]) {
+        const double f = col[a];
+        double* cs = L + start[s];
+        for (std::int32_t b = a; b < len - 1; ++b) cs[b - a] -= col[b] * f;
+      }
+    }
+  }
+  return -1;
+}
+
+void forward_packed(const Model& model, const double* L, const double* Dinv, bool ldlt, double* z) {
+  const std::int32_t* start = model.M_col_start;
+  const std::int32_t* parent = model.dof_parent;
+  for (std::int32_t j = 0; j < model.nv; ++j) {
+    if (!ldlt) z[j] *= Dinv[j];
+    const double zj = z[j];
+    const double* col = L + start[j] + 1;
+    std::int32_t r = parent[j];
+    for (std::int32_t a = 0; r >= 0; ++a, r = parent[r]) z[r] -= col[a] * zj;
+  }
+}
+
+void backward_packed(const Model& model, const double* L, const double* Dinv, bool ldlt, double* z) {
+  const std::int32_t* start = model.M_col_start;
+  const std::int32_t* parent = model.dof_parent;
+  for (std::int32_t j = model.nv - 1; j >= 0; --j) {
+    double s = ldlt ? z[j] * Dinv[j] : z[j];
+    const double* col = L + start[j] + 1;
+    std::int32_t r = parent[j];
+    for (std::int32_t a = 0; r >= 0; ++a, r = parent[r]) s -= col[a] * z[r];
+    z[j] = ldlt ? s : s * Dinv[j];
+  }
+}
+
 const char* status_name(int status) {
   switch (status) {
     case kSuccess: return "success";

@@ -102,6 +102,9 @@ std::vector<ModelCase> random_trees() {
     o.floating_base = n % 2 == 0;
     out.push_back({"random_" + std::to_string(n) + "_seed" + std::to_string(o.seed), random_tree_urdf(o)});
   }
+  // A 200-joint chain: M is dense, and the unrolled factorization would be too
+  // large, so the generator emits the table-driven Steps 1, 2 and 4.
+  out.push_back({"chain_200", chain_urdf(200, 3)});
   // Bounded depth (a scene of many small mechanisms).
   for (int n : {40, 200}) {
     RandomTreeOptions o;

@@ -221,6 +221,28 @@ void constraints_all_rows(const Model& model, const ConstraintModel& cm, BodySta
 void unpack_constraint_jacobian(const Model& model, const ConstraintModel& cm, const double* Phiq_p,
                                 double* Phiq_user);
 
+// ---- Table-driven factorization (large models) -------------------------------
+//
+// The same arithmetic as the generated straight-line Steps 1, 2 and 4, as
+// loops over the packed layout: for models whose unrolled code would be too
+// large to compile (the generator chooses).  Right-looking: column j (Lemma 2
+// order, leaves first) is final once its descendants are done; its pivot is
+// checked, its ancestor rows scaled, and the outer product of those rows is
+// subtracted from the columns of the ancestors (which are all in the chain,
+// so no fill-in, Lemma 2).
+
+/// In-place L L^T (ldlt false) or L D L^T (ldlt true, D on the diagonal) of
+/// the packed M; Dinv[j] = 1 / pivot.  Returns -1, or the Lemma 2 dof whose
+/// pivot was <= pivot_tolerance * M[j, j] (or NaN); its pivot in *pivot.
+std::int32_t factor_packed(const Model& model, double* L, double* Dinv, bool ldlt, double pivot_tolerance,
+                           double* pivot);
+
+/// Step 2, L z = Q in place (unit diagonal with ldlt: D^-1 waits for Step 4).
+void forward_packed(const Model& model, const double* L, const double* Dinv, bool ldlt, double* z);
+
+/// Step 4, L^T x = z (ldlt: D^-1 applied first) in place.
+void backward_packed(const Model& model, const double* L, const double* Dinv, bool ldlt, double* z);
+
 /// Result codes of the generated solvers (INTERFACE.md section 4).
 enum Status : int {
   kSuccess = 0,
