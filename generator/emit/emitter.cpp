@@ -286,12 +286,15 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
   v["dof_user"] = join_ints(t.dof_user);
   v["col_start"] = join_ints(t.M_col_start);
   v["dof_joint"] = join_ints(dof_joint);
-  std::vector<long long> pack_from_dense;
+  std::vector<long long> pack_to, pack_from;
   for (int c = 0; c < t.nv; ++c) {
-    pack_from_dense.push_back(static_cast<long long>(t.dof_user[c]) * (t.nv + 1));
-    for (int r : t.ancestors(c)) pack_from_dense.push_back(t.dof_user[r] + static_cast<long long>(t.nv) * t.dof_user[c]);
+    pack_to.push_back(static_cast<long long>(pack_to.size()));
+    pack_from.push_back(static_cast<long long>(t.dof_user[c]) * (t.nv + 1));
+    for (int r : t.ancestors(c)) {
+      pack_to.push_back(static_cast<long long>(pack_to.size()));
+      pack_from.push_back(t.dof_user[r] + static_cast<long long>(t.nv) * t.dof_user[c]);
+    }
   }
-  v["pack_from_dense"] = join_ints(pack_from_dense);
   v["model_init"] = fmt::format("{}, {}, {}, kBodies, kDofParent, kDofUser, kMColStart, {{{}, {}, {}}}", nb,
                                 t.nq, t.nv, num(options.gravity[0]), num(options.gravity[1]),
                                 num(options.gravity[2]));
@@ -367,20 +370,26 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
 
   // The API: a tree gets no constraint code at all.
   TemplateValues api;
-  for (const char* key : {"step2_args", "nnz", "bias_terms", "gravity_flag", "damping_flag"}) api[key] = v[key];
+  for (const char* key : {"step2_args", "bias_terms", "gravity_flag", "damping_flag"}) api[key] = v[key];
   v.erase("step2_args");
   v.erase("bias_terms");
   solver.ops = {{"1", k1.ops}, {"2", k2.ops}};
+  // solve_augmented reads the structurally non-zero entries of the dense
+  // inputs only (straight-line copies unless the model is large).
+  v["gather"] = gather_function(
+      "// M (dense, user order) -> packed L: the structurally non-zero entries, eq. (18).\n", "gather_M", "M", "L",
+      pack_to, pack_from, unrolled);
   if (nc == 0) {
     v["constraint_tables"] = "";
     v["constraint_workspace"] = "";
     v["step3"] = "";
     v["api"] = render_template("api_tree.cpp.tmpl", template_text("api_tree.cpp.tmpl"), api);
   } else {
-    LoopCode loops = emit_loops(t, desc, options.method);
+    LoopCode loops = emit_loops(t, options.method, unrolled);
     v["constraint_tables"] = loops.tables;
     v["constraint_workspace"] = loops.workspace;
     v["step3"] = loops.step3;
+    v["gather"] += "\n\n" + loops.gather;
     for (const auto& [key, value] : loops.call_args) api[key] = value;
     v["api"] = render_template("api_loops.cpp.tmpl", template_text("api_loops.cpp.tmpl"), api);
     solver.ops.insert(solver.ops.end(), loops.ops.begin(), loops.ops.end());

@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "topology/topology.hpp"
 
@@ -70,6 +71,25 @@ inline std::string dof_label(const topology::Tree& t, int dof) {
   const topology::Body& b = t.bodies[t.dof_body[dof]];
   if (b.nv == 1) return fmt::format("joint '{}'", comment_text(b.joint_name));
   return fmt::format("joint '{}' (coordinate {} of {})", comment_text(b.joint_name), dof - b.v_lem + 1, b.nv);
+}
+
+// A function copying entries of a dense user-order matrix into a packed
+// workspace: dst[to[k]] = src[from[k]].  Straight-line when `unrolled`, else
+// a loop over two constant tables.
+inline std::string gather_function(const std::string& doc, const std::string& name, const std::string& src,
+                                   const std::string& dst, const std::vector<long long>& to,
+                                   const std::vector<long long>& from, bool unrolled) {
+  std::string out = doc + fmt::format("void {}(const double* __restrict {}, double* __restrict {}) {{\n", name, src, dst);
+  if (to.empty()) {
+    out += fmt::format("  (void){};\n  (void){};\n", src, dst);
+  } else if (unrolled) {
+    for (std::size_t k = 0; k < to.size(); ++k) out += fmt::format("  {}[{}] = {}[{}];\n", dst, to[k], src, from[k]);
+  } else {
+    out += fmt::format("  static constexpr std::int32_t kTo[{}] = {{ {} }};\n", to.size(), join_ints(to));
+    out += fmt::format("  static constexpr std::int64_t kFrom[{}] = {{ {} }};\n", from.size(), join_ints(from));
+    out += fmt::format("  for (std::int32_t k = 0; k < {}; ++k) {}[kTo[k]] = {}[kFrom[k]];\n", to.size(), dst, src);
+  }
+  return out + "}";
 }
 
 }  // namespace jrgen::emit

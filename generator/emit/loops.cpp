@@ -146,8 +146,7 @@ SchurPattern schur_pattern(const topology::Tree& t) {
   return sp;
 }
 
-LoopCode emit_loops(const topology::Tree& t, const std::vector<std::vector<int>>& desc, Method method) {
-  (void)desc;
+LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gathers) {
   LoopCode out;
   const bool ldlt = method == Method::kLDLT;
   const std::vector<Row> rows = kept_rows(t);
@@ -156,7 +155,6 @@ LoopCode emit_loops(const topology::Tree& t, const std::vector<std::vector<int>>
   const std::vector<jr::CutModel> models = analysis::cut_models(t);
   const int phiq_nnz = rows.empty() ? 0 : rows.back().t_start + static_cast<int>(t.cuts[rows.back().cut].dofs.size());
   const SchurPattern sp = schur_pattern(t);
-  int phiq_read = 0;  // structurally non-zero Jacobian entries
 
   // ---- tables ----
   {
@@ -192,11 +190,10 @@ LoopCode emit_loops(const topology::Tree& t, const std::vector<std::vector<int>>
         from_dense.push_back(g + static_cast<long long>(m) * t.dof_user[cut.dofs[idx]]);
       }
     }
-    phiq_read = static_cast<int>(packed.size());
-    s += "// Packed Phiq[kPhiqPacked[k]] <- dense user-order Phiq[kPhiqFromDense[k]] (column-major):\n"
-         "// the structurally non-zero entries only (Lemma 3 dofs less the common ancestors).\n";
-    s += fmt::format("constexpr std::int32_t kPhiqPacked[{}] = {{ {} }};\n", packed.size(), join_ints(packed));
-    s += fmt::format("constexpr std::int32_t kPhiqFromDense[{}] = {{ {} }};\n", packed.size(), join_ints(from_dense));
+    out.gather = gather_function(
+        "// Phiq (dense, user order) -> packed: the structurally non-zero entries only\n"
+        "// (the dofs of Lemma 3 less the common ancestors, where Phiq is zero).\n",
+        "gather_Phiq", "Phiq", "T", packed, from_dense, unrolled_gathers);
     s += "// Kept constraint row -> the loop joint and row of its type (for diagnostics).\n";
     s += fmt::format("const char* const kRowLabel[{}] = {{\n", m);
     for (int g = 0; g < m; ++g) {
@@ -459,7 +456,6 @@ LoopCode emit_loops(const topology::Tree& t, const std::vector<std::vector<int>>
   out.call_args["step32_args"] = ldlt ? "g_T, g_Dinv, g_z, g_gamma, g_V, g_zm" : "g_T, g_z, g_gamma, g_zm";
   out.call_args["step33_args"] = ldlt ? "g_T, g_V, g_W" : "g_T, g_W";
   out.call_args["step35_args"] = "g_T, g_zm, g_z";
-  out.call_args["phiq_read"] = std::to_string(phiq_read);
   out.ops = {{"3.1", k31.ops}, {"3.2", k32.ops}, {"3.3", k33.ops}, {"3.4", k34}, {"3.5", k35.ops}};
   return out;
 }

@@ -32,10 +32,11 @@ struct LoopCode {
   std::string tables;     ///< constraint tables (namespace scope)
   std::string workspace;  ///< thread_local buffers
   std::string step3;      ///< the functions of Steps 3.1-3.5 and their helpers
+  std::string gather;     ///< gather_Phiq: dense Phiq -> packed, non-zero entries only
   TemplateValues call_args;  ///< arguments of the Step 3 calls in api_loops.cpp.tmpl
   std::vector<StepOps> ops;  ///< "3.1" .. "3.5"
 };
 
-LoopCode emit_loops(const topology::Tree& tree, const std::vector<std::vector<int>>& descendants, Method method);
+LoopCode emit_loops(const topology::Tree& tree, Method method, bool unrolled_gathers);
 
 }  // namespace jrgen::emit

@@ -10,6 +10,7 @@
 
 #include "common/random_cuts.hpp"
 #include "common/random_model.hpp"
+#include "urdf/urdf_reader.hpp"
 
 #ifndef JRGEN_SOURCE_DIR
 #error "JRGEN_SOURCE_DIR must be defined"
@@ -164,6 +165,19 @@ std::vector<ModelCase> all_models() {
   std::vector<ModelCase> more = loop_models();
   out.insert(out.end(), more.begin(), more.end());
   return out;
+}
+
+const ModelCase& find_model_case(const std::string& name) {
+  static const std::vector<ModelCase> cases = all_models();
+  for (const ModelCase& c : cases)
+    if (c.name == name) return c;
+  throw std::runtime_error("no model case " + name);
+}
+
+ir::Robot read_model_case(const ModelCase& c) {
+  ir::Robot robot = urdf::read_robot_string(c.urdf, c.name + ".urdf");
+  if (!c.cuts.empty()) urdf::read_cuts_string(c.cuts, c.name + ".cuts.xml", robot);
+  return robot;
 }
 
 std::vector<ModelCase> all_tree_models() {

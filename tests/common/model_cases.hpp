@@ -34,6 +34,13 @@ std::vector<ModelCase> loop_models();
 /// Trees and loops.
 std::vector<ModelCase> all_models();
 
+/// The case of all_models() with this name; throws std::runtime_error.
+const ModelCase& find_model_case(const std::string& name);
+
+/// The case's URDF and cuts through the URDF reader ("<name>.urdf" and
+/// "<name>.cuts.xml" in messages).
+ir::Robot read_model_case(const ModelCase& c);
+
 /// Gives every link without mass a 10 g, 1e-6 kg m^2 <inertial>.
 std::string give_massless_links_inertia(const std::string& urdf);
 

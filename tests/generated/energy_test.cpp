@@ -63,18 +63,8 @@ const Solver kFourbar =
     JRGEN_ENERGY_SOLVER(gen_loops_fourbar_conservative, "loops_fourbar_conservative", 0.0, -9.81, 0.0);
 const Solver kRandom = JRGEN_ENERGY_SOLVER(gen_loops_random_20_seed5, "loops_random_20_seed5", 0.0, 0.0, -9.81);
 
-const testing::ModelCase& model_case(const std::string& name) {
-  static const std::vector<testing::ModelCase> cases = testing::loop_models();
-  for (const auto& c : cases)
-    if (c.name == name) return c;
-  throw std::runtime_error("no loop model case " + name);
-}
-
 ir::Robot read_case(const std::string& name) {
-  const testing::ModelCase& c = model_case(name);
-  ir::Robot robot = urdf::read_robot_string(c.urdf, c.name + ".urdf");
-  if (!c.cuts.empty()) urdf::read_cuts_string(c.cuts, c.name + ".cuts.xml", robot);
-  return robot;
+  return testing::read_model_case(testing::find_model_case(name));
 }
 
 // Damping of every velocity coordinate (user order) and the position index

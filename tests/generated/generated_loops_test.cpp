@@ -25,20 +25,12 @@ using testing::GeneratedSolver;
 using testing::kEps;
 using testing::relative_error;
 
-const testing::ModelCase& model_case(const std::string& name) {
-  static const std::vector<testing::ModelCase> cases = testing::loop_models();
-  for (const auto& c : cases)
-    if (c.name == name) return c;
-  throw std::runtime_error("no loop model case " + name);
-}
-
 class GeneratedLoops : public ::testing::TestWithParam<GeneratedSolver> {
  protected:
   void SetUp() override {
     const GeneratedSolver& s = GetParam();
-    const testing::ModelCase& c = model_case(s.model_case);
-    robot_ = urdf::read_robot_string(c.urdf, c.name + ".urdf");
-    if (!c.cuts.empty()) urdf::read_cuts_string(c.cuts, c.name + ".cuts.xml", robot_);
+    const testing::ModelCase& c = testing::find_model_case(s.model_case);
+    robot_ = testing::read_model_case(c);
     gravity_ = Eigen::Vector3d(s.gravity[0], s.gravity[1], s.gravity[2]);
   }
 
@@ -219,20 +211,7 @@ TEST(GeneratedLoopsDimensions, PaperAndExampleModels) {
   }
 }
 
-std::vector<GeneratedSolver> loop_solvers() {
-  std::vector<GeneratedSolver> out;
-  for (const GeneratedSolver& s : testing::generated_solvers())
-    if (s.model_case.rfind("loops_", 0) == 0) out.push_back(s);
-  return out;
-}
-
-std::string solver_name(const ::testing::TestParamInfo<GeneratedSolver>& info) { return info.param.target; }
-
-INSTANTIATE_TEST_SUITE_P(Loops, GeneratedLoops, ::testing::ValuesIn(loop_solvers()), solver_name);
+INSTANTIATE_TEST_SUITE_P(Loops, GeneratedLoops, ::testing::ValuesIn(testing::generated_solvers(true)), testing::solver_name);
 
 }  // namespace
 }  // namespace jrgen
-
-namespace jrgen::testing {
-inline void PrintTo(const GeneratedSolver& s, std::ostream* os) { *os << s.target; }
-}  // namespace jrgen::testing

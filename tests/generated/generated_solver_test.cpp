@@ -25,13 +25,6 @@ using testing::GeneratedSolver;
 using testing::kEps;
 using testing::relative_error;
 
-const testing::ModelCase& model_case(const std::string& name) {
-  static const std::vector<testing::ModelCase> cases = testing::all_models();
-  for (const auto& c : cases)
-    if (c.name == name) return c;
-  throw std::runtime_error("no model case " + name);
-}
-
 // 2-norm condition number of a symmetric positive definite matrix.
 double condition(const Eigen::MatrixXd& M) {
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(M, Eigen::EigenvaluesOnly);
@@ -51,7 +44,7 @@ class Generated : public ::testing::TestWithParam<GeneratedSolver> {
  protected:
   void SetUp() override {
     const GeneratedSolver& s = GetParam();
-    const testing::ModelCase& c = model_case(s.model_case);
+    const testing::ModelCase& c = testing::find_model_case(s.model_case);
     robot_ = urdf::read_robot_string(c.urdf, c.name + ".urdf");
     gravity_ = Eigen::Vector3d(s.gravity[0], s.gravity[1], s.gravity[2]);
   }
@@ -157,16 +150,7 @@ TEST_P(Generated, NaNInputIsReportedNotReturned) {
       << s.last_error();
 }
 
-std::string solver_name(const ::testing::TestParamInfo<GeneratedSolver>& info) { return info.param.target; }
-
-std::vector<GeneratedSolver> tree_solvers() {
-  std::vector<GeneratedSolver> out;
-  for (const GeneratedSolver& s : testing::generated_solvers())
-    if (s.model_case.rfind("loops_", 0) != 0) out.push_back(s);
-  return out;
-}
-
-INSTANTIATE_TEST_SUITE_P(Trees, Generated, ::testing::ValuesIn(tree_solvers()), solver_name);
+INSTANTIATE_TEST_SUITE_P(Trees, Generated, ::testing::ValuesIn(testing::generated_solvers(false)), testing::solver_name);
 
 // The registry covers every model case: a new case without a generated
 // solver would silently go untested.
@@ -180,7 +164,3 @@ TEST(GeneratedRegistry, CoversEveryModelCase) {
 
 }  // namespace
 }  // namespace jrgen
-
-namespace jrgen::testing {
-inline void PrintTo(const GeneratedSolver& s, std::ostream* os) { *os << s.target; }
-}  // namespace jrgen::testing

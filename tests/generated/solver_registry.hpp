@@ -3,6 +3,9 @@
 // tests/CMakeLists.txt (solver_registry.cpp in the build folder).
 #pragma once
 
+#include <gtest/gtest.h>
+
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -28,5 +31,18 @@ struct GeneratedSolver {
 };
 
 const std::vector<GeneratedSolver>& generated_solvers();
+
+/// The solvers of tree model cases (loops false) or of closed-loop ones,
+/// whose model case names start with "loops_".
+inline std::vector<GeneratedSolver> generated_solvers(bool loops) {
+  std::vector<GeneratedSolver> out;
+  for (const GeneratedSolver& s : generated_solvers())
+    if ((s.model_case.rfind("loops_", 0) == 0) == loops) out.push_back(s);
+  return out;
+}
+
+/// gtest names and printing.
+inline std::string solver_name(const ::testing::TestParamInfo<GeneratedSolver>& info) { return info.param.target; }
+inline void PrintTo(const GeneratedSolver& s, std::ostream* os) { *os << s.target; }
 
 }  // namespace jrgen::testing

@@ -42,8 +42,7 @@ struct LoopFixture {
   int total_rows = 0;
 
   explicit LoopFixture(const testing::ModelCase& c) {
-    robot = urdf::read_robot_string(c.urdf, c.name + ".urdf");
-    if (!c.cuts.empty()) urdf::read_cuts_string(c.cuts, c.name + ".cuts.xml", robot);
+    robot = testing::read_model_case(c);
     tree = topology::build_tree(robot);
     analysis::analyze_constraints(robot, tree, /*strict=*/false);
     rt = std::make_unique<analysis::RuntimeModel>(tree, Eigen::Vector3d(0.0, 0.0, -9.81));
@@ -188,8 +187,7 @@ TEST_P(Lemma3, JacobianIsZeroAtCommonAncestorDofs) {
 TEST(Lemma3Coverage, SomeCutHasCommonAncestors) {
   int with_common = 0, cuts = 0;
   for (const testing::ModelCase& c : testing::loop_models()) {
-    ir::Robot robot = urdf::read_robot_string(c.urdf, c.name + ".urdf");
-    if (!c.cuts.empty()) urdf::read_cuts_string(c.cuts, c.name + ".cuts.xml", robot);
+    ir::Robot robot = testing::read_model_case(c);
     const topology::Tree tree = topology::build_tree(robot);
     for (const topology::Cut& cut : tree.cuts) {
       ++cuts;

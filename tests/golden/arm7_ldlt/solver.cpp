@@ -82,9 +82,6 @@ constexpr jr::BodyModel kBodies[7] = {
 constexpr std::int32_t kDofParent[7] = { 1, 2, 3, 4, 5, 6, -1 };
 constexpr std::int32_t kDofUser[7] = { 6, 5, 4, 3, 2, 1, 0 };
 constexpr std::int32_t kMColStart[8] = { 0, 7, 13, 18, 22, 25, 27, 28 };
-// Packed entry k of M <- dense user-order M[kPackFromDense[k]] (column-major):
-// the structurally non-zero entries only, eq. (18).
-constexpr std::int32_t kPackFromDense[28] = { 48, 47, 46, 45, 44, 43, 42, 40, 39, 38, 37, 36, 35, 32, 31, 30, 29, 28, 24, 23, 22, 21, 16, 15, 14, 8, 7, 0 };
 // User velocity index -> joint (for diagnostics).
 constexpr std::int32_t kDofJoint[7] = { 0, 1, 2, 3, 4, 5, 6 };
 constexpr jr::Model kModel = { 7, 7, 7, kBodies, kDofParent, kDofUser, kMColStart, {0.0, 0.0, -9.81} };
@@ -108,6 +105,38 @@ int fail(int status, const char* what, std::int32_t dof_user, double value) {
 int not_positive_definite(std::int32_t dof_lem, double pivot) {
   return fail(kMassNotPositiveDefinite, "mass matrix not positive definite", kDofUser[dof_lem],
               pivot);
+}
+
+// M (dense, user order) -> packed L: the structurally non-zero entries, eq. (18).
+void gather_M(const double* __restrict M, double* __restrict L) {
+  L[0] = M[48];
+  L[1] = M[47];
+  L[2] = M[46];
+  L[3] = M[45];
+  L[4] = M[44];
+  L[5] = M[43];
+  L[6] = M[42];
+  L[7] = M[40];
+  L[8] = M[39];
+  L[9] = M[38];
+  L[10] = M[37];
+  L[11] = M[36];
+  L[12] = M[35];
+  L[13] = M[32];
+  L[14] = M[31];
+  L[15] = M[30];
+  L[16] = M[29];
+  L[17] = M[28];
+  L[18] = M[24];
+  L[19] = M[23];
+  L[20] = M[22];
+  L[21] = M[21];
+  L[22] = M[16];
+  L[23] = M[15];
+  L[24] = M[14];
+  L[25] = M[8];
+  L[26] = M[7];
+  L[27] = M[0];
 }
 
 // ---- Step 1: factor M = L D L^T, D on the diagonal of L in place (packed), eq. (25)-(26). ----
@@ -257,9 +286,16 @@ int solve_tree(double* qdd) {
   if (const int status = step1_factor(g_L, g_Dinv)) return status;
   step2_forward(g_L, g_z);
   step4_backward(g_L, g_Dinv, g_z);
-  for (std::int32_t j = 0; j < nv; ++j) qdd[kDofUser[j]] = g_z[j];
-  for (std::int32_t i = 0; i < nv; ++i)
-    if (!std::isfinite(qdd[i])) return fail(kNonFinite, "non-finite acceleration", i, qdd[i]);
+  // x * 0 is 0 for finite x and NaN otherwise: one test covers all entries;
+  // the scan that names the joint runs only on failure.
+  double finite = 0.0;
+  for (std::int32_t j = 0; j < nv; ++j) {
+    qdd[kDofUser[j]] = g_z[j];
+    finite += g_z[j] * 0.0;
+  }
+  if (!(finite == 0.0))
+    for (std::int32_t i = 0; i < nv; ++i)
+      if (!std::isfinite(qdd[i])) return fail(kNonFinite, "non-finite acceleration", i, qdd[i]);
   g_error[0] = '\0';
   return kSuccess;
 }
@@ -283,7 +319,7 @@ int solve_augmented(const double* M, const double* Q, const double* Phiq, const 
   (void)Phiq;
   (void)gamma;
   (void)lambda;
-  for (std::int32_t k = 0; k < 28; ++k) g_L[k] = M[kPackFromDense[k]];
+  gather_M(M, g_L);
   for (std::int32_t j = 0; j < nv; ++j) g_z[j] = Q[kDofUser[j]];
   return solve_tree(qdd);
 }
