@@ -549,12 +549,11 @@ void evaluate_cuts(const Model& model, const ConstraintModel& cm, BodyState* bod
     const int n = cut_rows(cut, k, l, rows);
     for (int r = 0; r < n; ++r) on_row(c, r, rows[r]);
     if (!jacobian) continue;
-    std::int32_t owner = cut.body_k >= 0 ? cut.body_k : cut.body_l;
     for_each_cut_dof(model, cut.body_k, cut.body_l, [&](std::int32_t index, std::int32_t dof, bool on_k, bool on_l) {
       // A dof on both paths moves Fk and Fl together rigidly, and every row
       // depends only on their relative placement: its entries are exactly 0.
       if (on_k && on_l) return;
-      owner = dof_owner(model, dof, on_k ? (cut.body_k) : (cut.body_l));
+      const std::int32_t owner = dof_owner(model, dof, on_k ? cut.body_k : cut.body_l);
       const BodyModel& bm = model.bodies[owner];
       const Vector6d& S = bodies[owner].S.col(dof - bm.v_lem);
       const Vector3d wj = motion[owner].R * S.head<3>(), vj = motion[owner].R * S.tail<3>();
