@@ -32,7 +32,18 @@ const char* joint_kind(ir::JointType type) {
 // Step 1: M = L L^T (or L D L^T), column by column, eq. (25) and (26); the
 // sums run over the descendants of the column only (Lemma 2: every other
 // L[j, i] is zero), and only the rows of ancestors are computed.
-Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc, Method method) {
+//
+// `dense` names the source of M's entries: empty, M is already packed in L
+// (forward_dynamics); else the user's dense column-major M, read straight
+// into the statement that first needs each entry (solve_augmented: no
+// separate gather pass).
+Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc, Method method,
+             const std::string& dense = "") {
+  // The original value of packed entry (row, col): row an ancestor of col.
+  auto M = [&](int row, int col) {
+    if (dense.empty()) return L(t, row, col);
+    return fmt::format("{}[{}]", dense, t.dof_user[row] + static_cast<long long>(t.nv) * t.dof_user[col]);
+  };
   Kernel k;
   for (int j = 0; j < t.nv; ++j) {
     Kernel::Unit& u = k.unit();
@@ -47,9 +58,9 @@ Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc,
       // eq. (25): L[j,j]^2 = M[j,j] - sum_i L[j,i]^2
       std::vector<Term> sq;
       for (int i : dj) sq.push_back({L(t, j, i), L(t, j, i)});
-      k.update(u, in, "d", diag, sq, "", "const double ", "sd");
+      k.update(u, in, "d", M(j, j), sq, "", "const double ", "sd");
       u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return not_positive_definite({}, d);",
-                                         diag, j));
+                                         M(j, j), j));
       u.lines.push_back(in + diag + " = std::sqrt(d);");
       u.lines.push_back(in + fmt::format("Dinv[{}] = 1.0 / {};", j, diag));
       u.statements += 3;
@@ -59,8 +70,7 @@ Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc,
       for (int r : anc) {
         std::vector<Term> terms;
         for (int i : dj) terms.push_back({L(t, j, i), L(t, r, i)});
-        const std::string target = L(t, r, j);
-        k.update(u, in, target, target, terms, fmt::format("Dinv[{}]", j));
+        k.update(u, in, L(t, r, j), M(r, j), terms, fmt::format("Dinv[{}]", j));
       }
     } else {
       // L D L^T: w_i = L[j,i] D[i]; D[j] = M[j,j] - sum_i w_i L[j,i];
@@ -73,9 +83,9 @@ Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc,
         k.ops.mul += 1;
         dterms.push_back({fmt::format("w{}", n), L(t, j, i)});
       }
-      k.update(u, in, "d", diag, dterms, "", "const double ", "sd");
+      k.update(u, in, "d", M(j, j), dterms, "", "const double ", "sd");
       u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return not_positive_definite({}, d);",
-                                         diag, j));
+                                         M(j, j), j));
       u.lines.push_back(in + diag + " = d;");
       u.lines.push_back(in + fmt::format("Dinv[{}] = 1.0 / d;", j));
       u.statements += 3;
@@ -83,8 +93,7 @@ Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc,
       for (int r : anc) {
         std::vector<Term> terms;
         for (std::size_t n = 0; n < dj.size(); ++n) terms.push_back({fmt::format("w{}", n), L(t, r, dj[n])});
-        const std::string target = L(t, r, j);
-        k.update(u, in, target, target, terms, fmt::format("Dinv[{}]", j));
+        k.update(u, in, L(t, r, j), M(r, j), terms, fmt::format("Dinv[{}]", j));
       }
     }
     u.lines.push_back("}");
@@ -224,9 +233,13 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
     chain += k;
   }
   const bool unrolled = products <= kMaxUnrolledProducts;
-  Kernel k1, k2, k4;
+  // Small models also get Step 1 reading the user's dense M directly
+  // (solve_augmented), which saves the separate pass copying M into L.
+  const bool fused = products <= kMaxFusedGatherProducts;
+  Kernel k1, k1_dense, k2, k4;
   if (unrolled) {
     k1 = step1(t, desc, options.method);
+    if (fused) k1_dense = step1(t, desc, options.method, "M");
     k2 = step2(t, desc, options.method);
     k4 = step4(t, options.method);
   } else {
@@ -356,6 +369,13 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
                     "and writes only rows of its ancestors. Dinv[j] = 1 / pivot j.\n"
                     "Ops: {} add, {} mul, {} div, {} sqrt.",
                     method_note, k1.ops.add, k1.ops.mul, k1.ops.div, k1.ops.sqrt));
+    if (fused)
+      v["step1"] += "\n\n" + k1_dense.functions(
+          "step1_factor_dense", "const double* M, double* L, double* Dinv", "M, L, Dinv", true,
+          "---- Step 1 for solve_augmented: the same statements, each reading its entry of\n"
+          "the user's dense M (column-major, user order) where the packed variant reads\n"
+          "L: only the structurally non-zero entries of eq. (18) are read, and no\n"
+          "separate copy of M into L is made.");
     v["step2"] = k2.functions(
         "step2_forward", ldlt ? "const double* L, double* z" : "const double* L, const double* Dinv, double* z",
         ldlt ? "L, z" : "L, Dinv, z", false,
@@ -380,9 +400,28 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
   solver.ops = {{"1", k1.ops}, {"2", k2.ops}};
   // solve_augmented reads the structurally non-zero entries of the dense
   // inputs only (straight-line copies unless the model is large).
-  v["gather"] = gather_function(
-      "// M (dense, user order) -> packed L: the structurally non-zero entries, eq. (18).\n", "gather_M", "M", "L",
-      pack_to, pack_from, unrolled);
+  // Q in, qdd out: user order <-> Lemma 2 order.
+  std::vector<long long> lem, user;
+  for (int j = 0; j < t.nv; ++j) {
+    lem.push_back(j);
+    user.push_back(t.dof_user[j]);
+  }
+  v["gather"] = gather_function("// Q (user order) -> z (Lemma 2 order).\n", "gather_Q", "Q", "z", lem, user, unrolled) +
+                "\n\n" +
+                gather_function("// z (Lemma 2 order) -> qdd (user order).\n", "scatter_qdd", "z", "qdd", user, lem,
+                                unrolled);
+  if (!fused) {
+    v["gather"] += "\n\n";
+    v["gather"] += gather_function(
+        "// M (dense, user order) -> packed L: the structurally non-zero entries, eq. (18).\n", "gather_M", "M", "L",
+        pack_to, pack_from, unrolled);
+    v["step1"] +=
+        "\n\n// Step 1 for solve_augmented: gather M's structurally non-zero entries, then factor.\n"
+        "int step1_factor_dense(const double* M, double* L, double* Dinv) {\n"
+        "  gather_M(M, L);\n"
+        "  return step1_factor(L, Dinv);\n"
+        "}";
+  }
   if (nc == 0) {
     v["constraint_tables"] = "";
     v["constraint_workspace"] = "";

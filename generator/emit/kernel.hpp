@@ -18,6 +18,11 @@ inline constexpr std::size_t kMaxStatementsPerFunction = 4000;
 // runtime's table-driven loops for Steps 1, 2 and 4 instead (compile time
 // and source size; see docs/benchmarks.md for the measurements).
 inline constexpr long long kMaxUnrolledProducts = 200000;
+// Models whose unrolled Step 1 holds at most this many products also get a
+// second copy of it reading the user's dense M (solve_augmented), instead of
+// a gather pass before the factorization: small models, where that pass is
+// a tenth of the solve.
+inline constexpr long long kMaxFusedGatherProducts = 20000;
 // Sums of more products than this are split into partial sums.
 inline constexpr std::size_t kMaxTermsPerStatement = 8;
 
