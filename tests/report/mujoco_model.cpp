@@ -2,6 +2,7 @@
 
 #include <mujoco/mujoco.h>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cstdio>
@@ -37,11 +38,15 @@ void write_body(const topology::Tree& tree, int b, int indent, std::ostringstrea
   const std::string pad(indent, ' ');
   out << pad << "<body name=\"" << joint_name(b) << "\" pos=\"" << vec(body.X_PJ.p) << "\" quat=\""
       << quat(body.X_PJ.R) << "\">\n";
+  // Principal axes computed here in double precision: MuJoCo's own
+  // diagonalization of fullinertia (mju_eig3, iterative) stops at a relative
+  // accuracy near 1e-10, which would dominate the comparison of M.
   const ir::Inertial& in = body.inertial;
-  const Eigen::Matrix3d& I = in.I_com;
-  out << pad << "  <inertial pos=\"" << vec(in.com) << "\" mass=\"" << num(in.mass) << "\" fullinertia=\""
-      << num(I(0, 0)) << " " << num(I(1, 1)) << " " << num(I(2, 2)) << " " << num(I(0, 1)) << " " << num(I(0, 2))
-      << " " << num(I(1, 2)) << "\"/>\n";
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(in.I_com);
+  Eigen::Matrix3d R = eig.eigenvectors();
+  if (R.determinant() < 0) R.col(2) = -R.col(2);
+  out << pad << "  <inertial pos=\"" << vec(in.com) << "\" quat=\"" << quat(R) << "\" mass=\"" << num(in.mass)
+      << "\" diaginertia=\"" << vec(eig.eigenvalues()) << "\"/>\n";
   const std::string common = "\" pos=\"0 0 0\" armature=\"0\" damping=\"0\" limited=\"false\"";
   switch (body.type) {
     case ir::JointType::Revolute:
