@@ -161,17 +161,18 @@ def plot_error_vs_time(models, out, failures):
                 if r and r["err_qdd"] is not None:
                     err = max(r["err_qdd"], 1e-18)  # exact results on a log axis
                     f.write(f"{r['time']:.6g} {err:.6g} {i} \"{meth}\"\n")
-        svg = os.path.join(pdir, f"err_time_{m['name']}.svg")
-        gnuplot(f"""set terminal svg size 640,420 font 'sans,11'
+        svg = os.path.join(pdir, f"err_time_{m['name']}.png")
+        series = [f"'{dat}' using 1:(($3=={i})?$2:1/0) with points pt {i + 4} ps 1.6 lw 2 title '{meth}'"
+                  for i, meth in enumerate(METHODS) if meth in m["methods"]]
+        gnuplot(f"""set terminal pngcairo size 800,500 font 'sans,10' noenhanced
 set output '{svg}'
 set title "{m['name']} (nv {m['nv']}, nc {m['nc']}): error against time"
 set logscale xy
-set xlabel 'median time per solve [us]'
+set xlabel 'median CPU time per solve [us]'
 set ylabel 'relative error of qdd'
-set key off
+set key outside right font 'sans,9'
 set grid
-plot '{dat}' using 1:2:3 with points pt 7 ps 1.2 lc variable, \\
-     '' using 1:2:4 with labels offset 0,0.9 font 'sans,8'
+plot {', '.join(series)}
 """, failures, svg)
         files.append(svg)
     return files
@@ -200,13 +201,13 @@ def plot_scaling(models, out, failures):
                 for n, t in pts:
                     f.write(f"{n} {t:.6g}\n")
             plots.append(f"'{dat}' using 1:2 with linespoints lw 1.5 pt {i + 4} title '{meth} (slope {s:.2f})'")
-        svg = os.path.join(pdir, f"scaling_{fam}.svg")
-        gnuplot(f"""set terminal svg size 720,480 font 'sans,11'
+        svg = os.path.join(pdir, f"scaling_{fam}.png")
+        gnuplot(f"""set terminal pngcairo size 900,560 font 'sans,10' noenhanced
 set output '{svg}'
 set title "{fam}: time against size (log-log, least-squares slopes)"
 set logscale xy
 set xlabel 'K = nv + nc'
-set ylabel 'median time per solve [us]'
+set ylabel 'median CPU time per solve [us]'
 set key top left font 'sans,9'
 set grid
 plot {', '.join(plots)}
