@@ -182,9 +182,9 @@ Problem make_problem(const GeneratedApi& g, const topology::Tree& tree, std::uin
 struct Method {
   std::string name;
   std::function<int()> solve;  ///< the timed call
-  Eigen::VectorXd* qdd = nullptr;
-  Eigen::VectorXd* lambda = nullptr;
-  // Accuracy, filled after one untimed solve.
+  /// After an untimed solve: copies the method's result into qdd, lambda.
+  std::function<void(Eigen::VectorXd& qdd, Eigen::VectorXd& lambda)> result;
+  // Accuracy, filled by measure() after one untimed solve.
   int status = 0;
   double err_qdd = 0, err_lambda = 0, err_f = 0, res17 = 0, bound = 0;
   bool pass = true;
@@ -341,8 +341,10 @@ const char* const kStepNames[8] = {"1", "2", "3.1", "3.2", "3.3", "3.4", "3.5", 
 void measure(Method& m, const Problem& p) {
   m.status = m.solve();
   const int nv = p.nv, nc = p.nc;
+  Eigen::VectorXd qdd(nv), lambda(nc);
+  m.result(qdd, lambda);
   VectorXld x(p.K);
-  x << m.qdd->cast<long double>(), m.lambda->cast<long double>();
+  x << qdd.cast<long double>(), lambda.cast<long double>();
   const VectorXld& xr = p.ref.x;
   m.err_qdd = static_cast<double>((x.head(nv) - xr.head(nv)).norm() / xr.head(nv).norm());
   if (nc > 0) {
@@ -458,44 +460,35 @@ int run(int argc, char** argv, const ModelInfo& info, const GeneratedApi& llt, c
   AlgD algd(p);
   AlgS algs(tree, p.M.data(), p.Q.data(), p.Phiq.data(), p.gamma.data());
   Generated gen_llt(p, llt), gen_ldlt(p, ldlt);
-  Eigen::VectorXd sym_qdd, sym_lambda, sp_qdd, sp_lambda, as_qdd(nv), as_lambda(nc), g_qdd, g_lambda;
 
+  // The results of the stacked-x methods split into (qdd, lambda).
+  auto split = [nv, nc](const Eigen::VectorXd& x) {
+    return [&x, nv, nc](Eigen::VectorXd& qdd, Eigen::VectorXd& lambda) {
+      qdd = x.head(nv);
+      lambda = x.tail(nc);
+    };
+  };
+  auto both = [](const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+    return [&a, &b](Eigen::VectorXd& qdd, Eigen::VectorXd& lambda) {
+      qdd = a;
+      lambda = b;
+    };
+  };
   std::vector<Method> methods;
-  methods.push_back({"gauss", [&] { return gauss.solve(); }});
-  methods.push_back({"symmetric", [&] { return sym.solve(); }});
-  methods.push_back({"sparse", [&] { return sparse.solve(); }});
-  methods.push_back({"alg_d", [&] { return algd.solve(); }, &algd.qdd, &algd.lambda});
-  methods.push_back({"alg_s", [&] { return algs.solve(); }, &as_qdd, &as_lambda});
-  methods.push_back({"gen_llt", [&] { return gen_llt.solve(); }, &gen_llt.qdd, &gen_llt.lambda});
-  methods.push_back({"gen_ldlt", [&] { return gen_ldlt.solve(); }, &gen_ldlt.qdd, &gen_ldlt.lambda});
-  Eigen::VectorXd gauss_qdd, gauss_lambda;
+  methods.push_back({"gauss", [&] { return gauss.solve(); }, split(gauss.x)});
+  methods.push_back({"symmetric", [&] { return sym.solve(); }, split(sym.x)});
+  methods.push_back({"sparse", [&] { return sparse.solve(); }, split(sparse.x)});
+  methods.push_back({"alg_d", [&] { return algd.solve(); }, both(algd.qdd, algd.lambda)});
+  methods.push_back({"alg_s", [&] { return algs.solve(); },
+                     [&](Eigen::VectorXd& qdd, Eigen::VectorXd& lambda) {
+                       qdd = Eigen::Map<const Eigen::VectorXd>(algs.qdd().data(), nv);
+                       lambda = Eigen::Map<const Eigen::VectorXd>(algs.lambda().data(), nc);
+                     }});
+  methods.push_back({"gen_llt", [&] { return gen_llt.solve(); }, both(gen_llt.qdd, gen_llt.lambda)});
+  methods.push_back({"gen_ldlt", [&] { return gen_ldlt.solve(); }, both(gen_ldlt.qdd, gen_ldlt.lambda)});
   bool all_pass = true;
   for (Method& m : methods) {
-    // Methods whose result lives in a stacked x: split after the solve.
-    if (m.name == "gauss" || m.name == "symmetric" || m.name == "sparse") {
-      const Eigen::VectorXd* x = m.name == "gauss" ? &gauss.x : m.name == "symmetric" ? &sym.x : &sparse.x;
-      Eigen::VectorXd* qdd = m.name == "gauss" ? &gauss_qdd : m.name == "symmetric" ? &sym_qdd : &sp_qdd;
-      Eigen::VectorXd* lam = m.name == "gauss" ? &gauss_lambda : m.name == "symmetric" ? &sym_lambda : &sp_lambda;
-      const int s = m.solve();
-      *qdd = x->head(nv);
-      *lam = x->tail(nc);
-      m.qdd = qdd;
-      m.lambda = lam;
-      auto solve = m.solve;
-      m.solve = [s] { return s; };  // measure() on the stored result
-      measure(m, p);
-      m.solve = solve;
-    } else if (m.name == "alg_s") {
-      auto solve = m.solve;
-      const int s = solve();
-      as_qdd = Eigen::Map<const Eigen::VectorXd>(algs.qdd().data(), nv);
-      as_lambda = Eigen::Map<const Eigen::VectorXd>(algs.lambda().data(), nc);
-      m.solve = [s] { return s; };
-      measure(m, p);
-      m.solve = solve;
-    } else {
-      measure(m, p);
-    }
+    measure(m, p);
     std::fprintf(stderr, "%-12s %-10s status %d  err_qdd %.2e  err_lambda %.2e  res17 %.2e  bound %.2e  %s\n",
                  info.name, m.name.c_str(), m.status, m.err_qdd, m.err_lambda, m.res17, m.bound,
                  m.pass ? "ok" : "FAIL");
@@ -536,21 +529,21 @@ int run(int argc, char** argv, const ModelInfo& info, const GeneratedApi& llt, c
       pm.b = rhs_mj;
       pm.ref = reference_solve(pm.A, pm.b);
       pm.cond_A = pm.cond_M = cond1(M_mj);
-      static Eigen::VectorXd empty;
       mj_method.name = "mujoco";
       mj_method.solve = [&] {
         mj->factor_and_solve(rhs_mj.data(), x_mj.data());
         return 0;
       };
-      mj_method.qdd = &x_mj;
-      mj_method.lambda = &empty;
+      mj_method.result = [&](Eigen::VectorXd& qdd, Eigen::VectorXd& lambda) {
+        qdd = x_mj;
+        lambda.resize(0);
+      };
       measure(mj_method, pm);
       std::fprintf(stderr, "%-12s %-10s status %d  err_qdd %.2e  res %.2e  bound %.2e  %s;  %s\n", info.name,
                    "mujoco", mj_method.status, mj_method.err_qdd, mj_method.res17, mj_method.bound,
                    mj_method.pass ? "ok" : "FAIL", mj_status.c_str());
       all_pass = all_pass && mj_method.pass;
       methods.push_back(mj_method);
-      methods.back().solve = mj_method.solve;
     }
   }
   benchmark::AddCustomContext("mujoco_check", mj_status);
