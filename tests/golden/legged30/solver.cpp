@@ -1642,16 +1642,15 @@ int solve_augmented(const double* M, const double* Q, const double* Phiq, const 
 
 #ifdef JRGEN_EXPOSE_STEPS
 // Opt-in, for per-step timings (tests/report): the inputs gathered as in
-// solve_augmented, then the steps up to `last` only (0: none, 1: Step 1,
+// solve_augmented (Step 1 reads M itself), then the steps up to `last` only (0: none, 1: Step 1,
 // 2: Step 2, 8: Step 4; a tree has no Step 3).
 int solve_augmented_steps(const double* M, const double* Q, const double* Phiq, const double* gamma,
                           int last) {
   (void)Phiq;
   (void)gamma;
-  gather_M(M, g_L);
-  for (std::int32_t j = 0; j < nv; ++j) g_z[j] = Q[kDofUser[j]];
+  gather_Q(Q, g_z);
   if (last < 1) return kSuccess;
-  if (const int status = step1_factor(g_L, g_Dinv)) return status;
+  if (const int status = step1_factor_dense(M, g_L, g_Dinv)) return status;
   if (last < 2) return kSuccess;
   step2_forward(g_L, g_Dinv, g_z);
   if (last < 8) return kSuccess;
