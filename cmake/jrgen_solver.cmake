@@ -28,7 +28,7 @@ if(NOT JRGEN_EXECUTABLE)
 endif()
 set_property(GLOBAL PROPERTY JRGEN_EXECUTABLE "${JRGEN_EXECUTABLE}")
 
-set(JRGEN_MIN_PARALLEL_DOFS 3000)  # = emit::kMinParallelDofs
+set(JRGEN_MIN_PARALLEL_DOFS 10000)  # = emit::kMinParallelDofs
 
 # Velocity coordinates of the joints of a URDF, counted from its text.
 function(_jrgen_urdf_dofs urdf out)

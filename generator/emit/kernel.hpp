@@ -25,7 +25,7 @@ inline constexpr long long kMaxUnrolledProducts = 200000;
 inline constexpr int kMinDenseSupernode = 48;
 // --threads auto: trees with at least this many dofs get the parallel
 // variant (Corollary 3; docs/benchmarks.md).
-inline constexpr int kMinParallelDofs = 3000;
+inline constexpr int kMinParallelDofs = 10000;
 // Above this many packed entries, solve_augmented's gather of M walks the dof
 // tree instead of reading a table of source indices (source size).
 inline constexpr long long kMaxGatherTable = 1 << 20;
