@@ -15,9 +15,13 @@ namespace jrgen::emit {
 // never sees one giant basic block (compile time grows faster than linearly).
 inline constexpr std::size_t kMaxStatementsPerFunction = 4000;
 // Models whose unrolled Step 1 would hold more products than this get the
-// runtime's table-driven loops for Steps 1, 2 and 4 instead (compile time
-// and source size; see docs/benchmarks.md for the measurements).
-inline constexpr long long kMaxUnrolledProducts = 200000;
+// runtime's table-driven loops for Steps 1, 2 and 4 instead.  Chosen by
+// measurement (docs/report.md, 2026-11-22): the unrolled code outgrows the
+// instruction caches, and at about 50 000 products (tree_1000 of the report,
+// 1013 dofs) it is no faster than the same arithmetic as loops (61.9 vs
+// 61.8 us), while it still is below (tree_d4_1000, 21 600 products: 36.3 vs
+// 43.2 us); compile time grows with it (docs/benchmarks.md).
+inline constexpr long long kMaxUnrolledProducts = 50000;
 // Models whose unrolled Step 1 holds at most this many products also get a
 // second copy of it reading the user's dense M (solve_augmented), instead of
 // a gather pass before the factorization: small models, where that pass is
