@@ -118,8 +118,12 @@ Kernel step4(const topology::Tree& t, Method method) {
   for (int j = t.nv - 1; j >= 0; --j) {
     Kernel::Unit& u = k.unit();
     u.lines.push_back(fmt::format("// row {}: {}", j, dof_label(t, j)));
+    // The root-most ancestors first: the parent, solved just before, enters
+    // the sum last, so the serial chain from root to leaf is one product per
+    // row rather than one whole sum.
+    const std::vector<int> anc = t.ancestors(j);
     std::vector<Term> terms;
-    for (int r : t.ancestors(j)) terms.push_back({L(t, r, j), fmt::format("z[{}]", r)});
+    for (auto r = anc.rbegin(); r != anc.rend(); ++r) terms.push_back({L(t, *r, j), fmt::format("z[{}]", *r)});
     const std::string zj = fmt::format("z[{}]", j);
     const std::string dinv = fmt::format("Dinv[{}]", j);
     if (method == Method::kLLT) {

@@ -546,8 +546,10 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
   }
   for (int j = m - 1; j >= 0; --j) {  // backward
     std::vector<Term> terms;
-    for (int r : sp.pattern[j])
-      terms.push_back({fmt::format("W[{}]", sp.position(r, j)), fmt::format("zm[{}]", sp.order[r])});
+    // Farthest rows first: the position solved just before enters last, so
+    // the serial chain of the back substitution is one product per row.
+    for (auto r = sp.pattern[j].rbegin(); r != sp.pattern[j].rend(); ++r)
+      terms.push_back({fmt::format("W[{}]", sp.position(*r, j)), fmt::format("zm[{}]", sp.order[*r])});
     Kernel::Unit& u = k34s.unit();
     u.lines.push_back(fmt::format("// backward, row {}", j));
     const std::string z = fmt::format("zm[{}]", sp.order[j]);

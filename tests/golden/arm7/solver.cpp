@@ -246,15 +246,15 @@ void step4_backward(const double* __restrict L, const double* __restrict Dinv, d
   // row 5: joint 'joint_2'
   z[5] = (z[5] - L[26] * z[6]) * Dinv[5];
   // row 4: joint 'joint_3'
-  z[4] = (z[4] - (L[23] * z[5] + L[24] * z[6])) * Dinv[4];
+  z[4] = (z[4] - (L[24] * z[6] + L[23] * z[5])) * Dinv[4];
   // row 3: joint 'joint_4'
-  z[3] = (z[3] - (L[19] * z[4] + L[20] * z[5] + L[21] * z[6])) * Dinv[3];
+  z[3] = (z[3] - (L[21] * z[6] + L[20] * z[5] + L[19] * z[4])) * Dinv[3];
   // row 2: joint 'joint_5'
-  z[2] = (z[2] - (L[14] * z[3] + L[15] * z[4] + L[16] * z[5] + L[17] * z[6])) * Dinv[2];
+  z[2] = (z[2] - (L[17] * z[6] + L[16] * z[5] + L[15] * z[4] + L[14] * z[3])) * Dinv[2];
   // row 1: joint 'joint_6'
-  z[1] = (z[1] - (L[8] * z[2] + L[9] * z[3] + L[10] * z[4] + L[11] * z[5] + L[12] * z[6])) * Dinv[1];
+  z[1] = (z[1] - (L[12] * z[6] + L[11] * z[5] + L[10] * z[4] + L[9] * z[3] + L[8] * z[2])) * Dinv[1];
   // row 0: joint 'joint_7'
-  z[0] = (z[0] - (L[1] * z[1] + L[2] * z[2] + L[3] * z[3] + L[4] * z[4] + L[5] * z[5] + L[6] * z[6])) * Dinv[0];
+  z[0] = (z[0] - (L[6] * z[6] + L[5] * z[5] + L[4] * z[4] + L[3] * z[3] + L[2] * z[2] + L[1] * z[1])) * Dinv[0];
 }
 
 }  // namespace
