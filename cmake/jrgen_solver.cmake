@@ -6,6 +6,16 @@
 # The solver is regenerated when the URDF, the cuts file or jrgen changes.
 # Relative paths are taken from the calling CMakeLists.txt's folder.
 #
+# Parallel variant (jrgen --threads, an extension beyond INTERFACE.md): jrgen
+# emits OpenMP code for large trees, and then the target must be compiled and
+# linked with OpenMP (OpenMP::OpenMP_CXX).  add_jr_solver decides at configure
+# time, with the generator's rule: OPTIONS --threads 1 never; --threads N >= 2
+# always; otherwise (auto) when the URDF, read now, has at least
+# JRGEN_MIN_PARALLEL_DOFS velocity coordinates (the generator's threshold).  A
+# URDF that does not exist yet at configure time (written at build time) gets
+# --threads 1 unless OPTIONS say otherwise.  Without an OpenMP compiler the
+# parallel code is compiled serially (its pragmas sit under #ifdef _OPENMP).
+#
 # Needs JRGEN_EXECUTABLE (the jrgen program, a path or generator expression)
 # and the target jrgen::runtime, both set by find_package(jrgen) or by
 # jrgen's own CMakeLists.txt before including this file.  The program is
@@ -17,6 +27,25 @@ if(NOT JRGEN_EXECUTABLE)
   message(FATAL_ERROR "jrgen_solver.cmake: set JRGEN_EXECUTABLE before including this file")
 endif()
 set_property(GLOBAL PROPERTY JRGEN_EXECUTABLE "${JRGEN_EXECUTABLE}")
+
+set(JRGEN_MIN_PARALLEL_DOFS 10000)  # = emit::kMinParallelDofs
+
+# Velocity coordinates of the joints of a URDF, counted from its text.
+function(_jrgen_urdf_dofs urdf out)
+  file(READ "${urdf}" text)
+  string(REGEX MATCHALL "<joint[^>]*type=\"(revolute|continuous|prismatic|ball|planar|floating)\"" joints "${text}")
+  set(n 0)
+  foreach(j IN LISTS joints)
+    if(j MATCHES "floating")
+      math(EXPR n "${n} + 6")
+    elseif(j MATCHES "\"(ball|planar)\"")
+      math(EXPR n "${n} + 3")
+    else()
+      math(EXPR n "${n} + 1")
+    endif()
+  endforeach()
+  set(${out} ${n} PARENT_SCOPE)
+endfunction()
 
 function(add_jr_solver)
   cmake_parse_arguments(ARG "" "TARGET;URDF;CUTS;NAMESPACE" "OPTIONS" ${ARGN})
@@ -55,6 +84,32 @@ function(add_jr_solver)
     list(APPEND cmd --namespace "${ARG_NAMESPACE}")
   endif()
   list(APPEND cmd ${ARG_OPTIONS})
+  # Parallel variant: decide as jrgen does (see above).
+  set(threads auto)
+  list(FIND ARG_OPTIONS --threads at)
+  if(at GREATER_EQUAL 0)
+    math(EXPR at "${at} + 1")
+    list(LENGTH ARG_OPTIONS len)
+    if(at LESS len)
+      list(GET ARG_OPTIONS ${at} threads)
+    endif()
+  endif()
+  set(parallel OFF)
+  if(threads MATCHES "^[0-9]+$")
+    if(threads GREATER_EQUAL 2)
+      set(parallel ON)
+    endif()
+  elseif(ARG_CUTS)
+    # closed loops: always serial
+  elseif(EXISTS "${urdf}")
+    _jrgen_urdf_dofs("${urdf}" dofs)
+    if(dofs GREATER_EQUAL JRGEN_MIN_PARALLEL_DOFS)
+      set(parallel ON)
+    endif()
+    set_property(DIRECTORY APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS "${urdf}")
+  else()
+    list(APPEND cmd --threads 1)
+  endif()
   file(MAKE_DIRECTORY "${out_dir}")
   add_custom_command(
     OUTPUT "${out_cpp}" "${out_hpp}"
@@ -70,4 +125,12 @@ function(add_jr_solver)
   # errno: let the compiler emit the bare square-root instruction.
   target_compile_options(${ARG_TARGET} PRIVATE $<$<CXX_COMPILER_ID:GNU,Clang>:-fno-math-errno>)
   set_target_properties(${ARG_TARGET} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+  if(parallel)
+    find_package(OpenMP QUIET COMPONENTS CXX)
+    if(OpenMP_CXX_FOUND)
+      target_link_libraries(${ARG_TARGET} PUBLIC OpenMP::OpenMP_CXX)
+    else()
+      message(WARNING "add_jr_solver(${ARG_TARGET}): no OpenMP for C++; the parallel variant runs serially")
+    endif()
+  endif()
 endfunction()

@@ -29,7 +29,7 @@ namespace {
 constexpr const char* kUsage =
     "usage: jrgen MODEL.urdf [--cuts CUTS.xml] -o OUT.cpp [--namespace NAME]\n"
     "             [--gravity GX,GY,GZ] [--method llt|ldlt] [--report OPS.md]\n"
-    "             [--strict-constraints]\n";
+    "             [--strict-constraints] [--threads auto|1|N]\n";
 
 constexpr const char* kHelp =
     "Generates a loop-free C++ solver of the equations of motion of a mechanism\n"
@@ -45,6 +45,9 @@ constexpr const char* kHelp =
     "  --method llt|ldlt     factorization: Cholesky or square-root-free L D L^T\n"
     "  --report OPS.md       write the operation counts of the emitted code\n"
     "  --strict-constraints  redundant constraint rows are an error\n"
+    "  --threads auto|1|N    (extension) Corollary 3 parallel variant with OpenMP\n"
+    "                        tasks over subtrees: auto (default) for large trees,\n"
+    "                        1 never, N >= 2 always, with N threads\n"
     "  --help, --version\n";
 
 struct Arguments {
@@ -56,6 +59,7 @@ struct Arguments {
   Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
   jrgen::emit::Method method = jrgen::emit::Method::kLLT;
   bool strict_constraints = false;
+  int threads = 0;  ///< 0: auto
 };
 
 Eigen::Vector3d parse_gravity(const std::string& text) {
@@ -93,7 +97,23 @@ Arguments parse_arguments(int argc, char** argv) {
     else if (a == "--gravity") args.gravity = parse_gravity(value(i));
     else if (a == "--report") args.report = value(i);
     else if (a == "--strict-constraints") args.strict_constraints = true;
-    else if (a == "--method") {
+    else if (a == "--threads") {
+      const std::string t = value(i);
+      if (t == "auto") {
+        args.threads = 0;
+      } else {
+        std::size_t used = 0;
+        int n = 0;
+        try {
+          n = std::stoi(t, &used);
+        } catch (const std::exception&) {
+          used = 0;
+        }
+        if (used == 0 || used != t.size() || n < 1 || n > 1024)
+          throw jrgen::Error("--threads: expected auto or a number of threads 1..1024, got '" + t + "'");
+        args.threads = n;
+      }
+    } else if (a == "--method") {
       const std::string m = value(i);
       if (m == "llt") args.method = jrgen::emit::Method::kLLT;
       else if (m == "ldlt") args.method = jrgen::emit::Method::kLDLT;
@@ -177,6 +197,7 @@ int run(const Arguments& args) {
   options.name_space = args.name_space.empty() ? jrgen::emit::sanitize_identifier(robot.name) : args.name_space;
   options.gravity = args.gravity;
   options.method = args.method;
+  options.threads = args.threads;
   options.source_name = fs::path(args.model).filename().string();
   options.cuts_name = args.cuts.empty() ? "" : fs::path(args.cuts).filename().string();
   options.header_name = hpp_path.filename().string();

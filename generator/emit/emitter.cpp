@@ -10,6 +10,7 @@
 #include "emit/kernel.hpp"
 #include "emit/loops.hpp"
 #include "emit/template.hpp"
+#include "topology/topology.hpp"
 #include "ir/error.hpp"
 
 namespace jrgen::emit {
@@ -32,7 +33,18 @@ const char* joint_kind(ir::JointType type) {
 // Step 1: M = L L^T (or L D L^T), column by column, eq. (25) and (26); the
 // sums run over the descendants of the column only (Lemma 2: every other
 // L[j, i] is zero), and only the rows of ancestors are computed.
-Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc, Method method) {
+//
+// `dense` names the source of M's entries: empty, M is already packed in L
+// (forward_dynamics); else the user's dense column-major M, read straight
+// into the statement that first needs each entry (solve_augmented: no
+// separate gather pass).
+Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc, Method method,
+             const std::string& dense = "") {
+  // The original value of packed entry (row, col): row an ancestor of col.
+  auto M = [&](int row, int col) {
+    if (dense.empty()) return L(t, row, col);
+    return fmt::format("{}[{}]", dense, t.dof_user[row] + static_cast<long long>(t.nv) * t.dof_user[col]);
+  };
   Kernel k;
   for (int j = 0; j < t.nv; ++j) {
     Kernel::Unit& u = k.unit();
@@ -47,9 +59,9 @@ Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc,
       // eq. (25): L[j,j]^2 = M[j,j] - sum_i L[j,i]^2
       std::vector<Term> sq;
       for (int i : dj) sq.push_back({L(t, j, i), L(t, j, i)});
-      k.update(u, in, "d", diag, sq, "", "const double ", "sd");
+      k.update(u, in, "d", M(j, j), sq, "", "const double ", "sd");
       u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return not_positive_definite({}, d);",
-                                         diag, j));
+                                         M(j, j), j));
       u.lines.push_back(in + diag + " = std::sqrt(d);");
       u.lines.push_back(in + fmt::format("Dinv[{}] = 1.0 / {};", j, diag));
       u.statements += 3;
@@ -59,8 +71,7 @@ Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc,
       for (int r : anc) {
         std::vector<Term> terms;
         for (int i : dj) terms.push_back({L(t, j, i), L(t, r, i)});
-        const std::string target = L(t, r, j);
-        k.update(u, in, target, target, terms, fmt::format("Dinv[{}]", j));
+        k.update(u, in, L(t, r, j), M(r, j), terms, fmt::format("Dinv[{}]", j));
       }
     } else {
       // L D L^T: w_i = L[j,i] D[i]; D[j] = M[j,j] - sum_i w_i L[j,i];
@@ -73,9 +84,9 @@ Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc,
         k.ops.mul += 1;
         dterms.push_back({fmt::format("w{}", n), L(t, j, i)});
       }
-      k.update(u, in, "d", diag, dterms, "", "const double ", "sd");
+      k.update(u, in, "d", M(j, j), dterms, "", "const double ", "sd");
       u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return not_positive_definite({}, d);",
-                                         diag, j));
+                                         M(j, j), j));
       u.lines.push_back(in + diag + " = d;");
       u.lines.push_back(in + fmt::format("Dinv[{}] = 1.0 / d;", j));
       u.statements += 3;
@@ -83,8 +94,7 @@ Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc,
       for (int r : anc) {
         std::vector<Term> terms;
         for (std::size_t n = 0; n < dj.size(); ++n) terms.push_back({fmt::format("w{}", n), L(t, r, dj[n])});
-        const std::string target = L(t, r, j);
-        k.update(u, in, target, target, terms, fmt::format("Dinv[{}]", j));
+        k.update(u, in, L(t, r, j), M(r, j), terms, fmt::format("Dinv[{}]", j));
       }
     }
     u.lines.push_back("}");
@@ -157,6 +167,161 @@ std::string pattern_comment(const topology::Tree& t) {
   return out;
 }
 
+enum class Shape { kUnrolled, kTable, kSupernodal, kParallel };
+
+std::string as_comment(const std::string& text) {
+  std::string out;
+  for (const std::string& line : split_lines(text)) out += (out.empty() ? "// " : "\n// ") + line;
+  return out;
+}
+
+std::string ops_line(const OpCount& o) {
+  return fmt::format("// Ops: {} add, {} mul, {} div, {} sqrt.", o.add, o.mul, o.div, o.sqrt);
+}
+
+// Supernodal Steps 1, 2, 4 (method llt, trees): the dense supernodes as a
+// table, the runtime's blocked kernels on them, its scalar loops elsewhere.
+void supernodal_steps(const topology::Tree& t, const std::vector<topology::Supernode>& nodes, const OpCount& o1,
+                      const OpCount& o2, const OpCount& o4, TemplateValues& v) {
+  long long dense = 0;
+  std::string table;
+  for (const topology::Supernode& sn : nodes) {
+    const int last = sn.first + sn.size - 1;
+    table += fmt::format("  // dofs {}..{}: {} .. {}; {} x {} block + {} ancestor row(s)\n", sn.first, last,
+                         dof_label(t, sn.first), dof_label(t, last), sn.size, sn.size, sn.rows - sn.size);
+    table += fmt::format("  {{{}, {}, {}, {}}},\n", sn.first, sn.size, sn.rows, sn.offset);
+    dense = sn.offset + static_cast<long long>(sn.rows) * sn.size;
+  }
+  table.pop_back();
+  const int n = static_cast<int>(nodes.size());
+  v["step1"] = fmt::format(
+      "// ---- Step 1: factor M = L L^T, eq. (25)-(26), supernodal. ----\n"
+      "{}\n{}\n"
+      "constexpr jr::Supernode kSupernodes[{}] = {{\n{}\n}};\n"
+      "thread_local double g_S[{}];  // the supernodes' columns of L, dense\n"
+      "int step1_factor(double* L, double* Dinv) {{\n"
+      "  double pivot = 0.0;\n"
+      "  const std::int32_t j =\n"
+      "      jr::factor_supernodal(kModel, kSupernodes, {}, L, g_S, Dinv, kPivotTolerance, &pivot);\n"
+      "  return j < 0 ? 0 : not_positive_definite(j, pivot);\n"
+      "}}",
+      as_comment(fmt::format(
+          "Dense supernodes (runs of >= {} dofs of the dof tree each with a single child,\n"
+          "so their columns of L share one dense structure): Eigen's blocked Cholesky on\n"
+          "the diagonal block, a triangular solve for the panel of ancestor rows, and its\n"
+          "rank-s update subtracted from the ancestors' packed columns.  Every other\n"
+          "column: the runtime's scalar loops over the packed layout (Lemma 2).",
+          kMinDenseSupernode)),
+      ops_line(o1), n, table, dense, n);
+  v["step2"] = fmt::format(
+      "// ---- Step 2: solve L z = Q (forward substitution), Remark 2, supernodal. ----\n{}\n"
+      "void step2_forward(const double* L, const double* Dinv, double* z) {{\n"
+      "  jr::forward_supernodal(kModel, kSupernodes, {}, L, g_S, Dinv, z);\n"
+      "}}",
+      ops_line(o2), n);
+  v["step4"] = fmt::format(
+      "// ---- Step 4: solve L^T qdd = z (back substitution), Remark 2, supernodal. ----\n{}\n"
+      "void step4_backward(const double* L, const double* Dinv, double* z) {{\n"
+      "  jr::backward_supernodal(kModel, kSupernodes, {}, L, g_S, Dinv, z);\n"
+      "}}",
+      ops_line(o4), n);
+}
+
+// Parallel Steps 1, 2, 4 (Corollary 3, trees): subtrees below a separator as
+// OpenMP work items (groups of consecutive subtrees of about equal work).
+void parallel_steps(const topology::Tree& t, const Options& options, const OpCount& o1, const OpCount& o2,
+                    const OpCount& o4, TemplateValues& v) {
+  constexpr int kParts = 32;  // work items, a few per thread on small machines
+  const std::vector<topology::Subtree> trees =
+      topology::partition_subtrees(t, kParts, std::max(16, t.nv / 20));
+  long long total = 0, buffer = 1, inside = 0;
+  for (const topology::Subtree& s : trees) {
+    total += s.work;
+    buffer = std::max(buffer, s.buffer + static_cast<long long>(s.path) * s.path);
+    inside += s.root - s.first + 1;
+  }
+  std::vector<long long> task_start{0};
+  long long acc = 0;
+  for (std::size_t i = 0; i < trees.size(); ++i) {
+    acc += trees[i].work;
+    if (acc * kParts >= total || i + 1 == trees.size()) {
+      task_start.push_back(static_cast<long long>(i) + 1);
+      acc = 0;
+    }
+  }
+  std::string table;
+  for (const topology::Subtree& s : trees)
+    table += fmt::format("  {{{}, {}, {}, {}}},  // {}\n", s.first, s.root, s.path, s.buffer, dof_label(t, s.root));
+  table.pop_back();
+  const int n = static_cast<int>(trees.size());
+  const int tasks = static_cast<int>(task_start.size()) - 1;
+  const bool ldlt = options.method == Method::kLDLT;
+  const char* flag = ldlt ? "true" : "false";
+  const std::string omp = options.threads >= 2
+                              ? fmt::format("#pragma omp parallel for schedule(dynamic, 1) num_threads({})", options.threads)
+                              : std::string("#pragma omp parallel for schedule(dynamic, 1)");
+  const std::string pragma = "#if defined(_OPENMP)\n" + omp + "\n#endif\n";
+  v["step1"] = fmt::format(
+      "// ---- Step 1: factor {} in place (packed), eq. (25)-(26), parallel. ----\n"
+      "{}\n{}\n"
+      "constexpr jr::Subtree kSubtrees[{}] = {{\n{}\n}};\n"
+      "// Work item w runs subtrees kTaskStart[w] .. kTaskStart[w + 1] - 1.\n"
+      "constexpr std::int32_t kTaskStart[{}] = {{ {} }};\n"
+      "constexpr std::int32_t kNumTasks = {};\n"
+      "thread_local double g_U[{}];  // per-subtree updates of its path rows\n"
+      "int step1_factor(double* L, double* Dinv) {{\n"
+      "  jr::save_diagonal(kModel, L, Dinv);\n"
+      "  double* const U = g_U;  // this thread's buffer, shared with the workers\n"
+      "  std::int32_t failed[kNumTasks];\n"
+      "  double pivots[kNumTasks];\n"
+      "{}"
+      "  for (std::int32_t w = 0; w < kNumTasks; ++w) {{\n"
+      "    failed[w] = -1;\n"
+      "    for (std::int32_t i = kTaskStart[w]; i < kTaskStart[w + 1] && failed[w] < 0; ++i)\n"
+      "      failed[w] = jr::factor_subtree(kModel, kSubtrees[i], L, Dinv, {}, kPivotTolerance, &pivots[w],\n"
+      "                                     U + kSubtrees[i].buffer);\n"
+      "  }}\n"
+      "  for (std::int32_t w = 0; w < kNumTasks; ++w)\n"
+      "    if (failed[w] >= 0) return not_positive_definite(failed[w], pivots[w]);\n"
+      "  for (std::int32_t i = 0; i < {}; ++i) jr::apply_subtree_update(kModel, kSubtrees[i], U + kSubtrees[i].buffer, L);\n"
+      "  double pivot = 0.0;\n"
+      "  const std::int32_t j = jr::factor_separator(kModel, kSubtrees, {}, L, Dinv, {}, kPivotTolerance, &pivot);\n"
+      "  return j < 0 ? 0 : not_positive_definite(j, pivot);\n"
+      "}}",
+      ldlt ? "M = L D L^T" : "M = L L^T",
+      as_comment(fmt::format(
+          "Corollary 3 (Section 5): columns of L in disjoint subtrees are independent.\n"
+          "{} subtrees ({} dofs) below a separator of {} dofs, in {} work items run\n"
+          "in parallel (OpenMP, when compiled with it); each subtree's updates of the\n"
+          "separator rows go to its own buffer, added in serially before the separator\n"
+          "columns are factored.  Step 2 likewise; Step 4 in reverse.",
+          n, inside, t.nv - inside, tasks)),
+      ops_line(o1), n, table, tasks + 1, join_ints(task_start), tasks, buffer, pragma, flag, n, n, flag);
+  v["step2"] = fmt::format(
+      "// ---- Step 2: solve L z = Q (forward substitution), Remark 2, parallel. ----\n{}\n"
+      "void step2_forward(const double* L, {}double* z) {{\n"
+      "  double* const U = g_U;\n"
+      "{}"
+      "  for (std::int32_t w = 0; w < kNumTasks; ++w)\n"
+      "    for (std::int32_t i = kTaskStart[w]; i < kTaskStart[w + 1]; ++i)\n"
+      "      jr::forward_subtree(kModel, kSubtrees[i], L, {}, {}, z, U + kSubtrees[i].buffer);\n"
+      "  for (std::int32_t i = 0; i < {}; ++i) jr::apply_subtree_forward(kModel, kSubtrees[i], U + kSubtrees[i].buffer, z);\n"
+      "  jr::forward_separator(kModel, kSubtrees, {}, L, {}, {}, z);\n"
+      "}}",
+      ops_line(o2), ldlt ? "" : "const double* Dinv, ", pragma, ldlt ? "nullptr" : "Dinv", flag, n, n,
+      ldlt ? "nullptr" : "Dinv", flag);
+  v["step4"] = fmt::format(
+      "// ---- Step 4: solve L^T qdd = z (back substitution), Remark 2, parallel. ----\n{}\n"
+      "void step4_backward(const double* L, const double* Dinv, double* z) {{\n"
+      "  jr::backward_separator(kModel, kSubtrees, {}, L, Dinv, {}, z);\n"
+      "{}"
+      "  for (std::int32_t w = 0; w < kNumTasks; ++w)\n"
+      "    for (std::int32_t i = kTaskStart[w]; i < kTaskStart[w + 1]; ++i)\n"
+      "      jr::backward_subtree(kModel, kSubtrees[i], L, Dinv, {}, z);\n"
+      "}}",
+      ops_line(o4), n, flag, pragma, flag);
+}
+
 std::string body_tables(const topology::Tree& t) {
   std::string out;
   for (std::size_t b = 0; b < t.bodies.size(); ++b) {
@@ -212,21 +377,37 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
     throw Error(ir::SourceLocation{robot.source_file, 0}, "robot", robot.name,
                 "has no moving joints: there are no equations of motion to solve");
   const int nb = static_cast<int>(t.bodies.size());
-  const std::vector<std::vector<int>> desc = t.descendants();
 
   // Shape of Steps 1, 2 and 4: straight-line code while it stays small
   // enough to compile quickly; beyond that, the runtime's loops over the same
-  // packed layout (same arithmetic, no fill-in either way).
+  // packed layout (same arithmetic, no fill-in either way).  Trees (no Step 3
+  // reading the packed L) may instead get the supernodal shape, when a long
+  // run of single-child dofs makes a dense block, or the parallel one
+  // (Corollary 3), for large trees.
   long long products = 0, chain = 0;
   for (int j = 0; j < t.nv; ++j) {
     const long long k = t.dof_depth[j];
     products += k * (k + 1) / 2;
     chain += k;
   }
-  const bool unrolled = products <= kMaxUnrolledProducts;
-  Kernel k1, k2, k4;
+  const bool tree_only = t.cuts.empty();
+  std::vector<topology::Supernode> supernodes;
+  if (tree_only && options.method == Method::kLLT) supernodes = topology::dense_supernodes(t, kMinDenseSupernode);
+  const bool parallel =
+      tree_only && (options.threads >= 2 || (options.threads == 0 && t.nv >= kMinParallelDofs));
+  const Shape shape = parallel                ? Shape::kParallel
+                      : !supernodes.empty()   ? Shape::kSupernodal
+                      : products <= kMaxUnrolledProducts ? Shape::kUnrolled
+                                                          : Shape::kTable;
+  const bool unrolled = shape == Shape::kUnrolled;
+  // Small models also get Step 1 reading the user's dense M directly
+  // (solve_augmented), which saves the separate pass copying M into L.
+  const bool fused = unrolled && products <= kMaxFusedGatherProducts;
+  Kernel k1, k1_dense, k2, k4;
   if (unrolled) {
+    const std::vector<std::vector<int>> desc = t.descendants();
     k1 = step1(t, desc, options.method);
+    if (fused) k1_dense = step1(t, desc, options.method, "M");
     k2 = step2(t, desc, options.method);
     k4 = step4(t, options.method);
   } else {
@@ -271,6 +452,7 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
                                t.cuts.size(), nc, dropped ? fmt::format(" ({} redundant dropped)", dropped) : "");
   }
   v["pattern"] = pattern_comment(t);
+  v["runtime_header"] = shape == Shape::kSupernodal || shape == Shape::kParallel ? "jrgen/factor.hpp" : "jrgen/runtime.hpp";
 
   std::string names, q_index, v_index;
   std::vector<int> dof_joint(t.nv, 0);
@@ -291,7 +473,7 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
   v["col_start"] = join_ints(t.M_col_start);
   v["dof_joint"] = join_ints(dof_joint);
   std::vector<long long> pack_to, pack_from;
-  for (int c = 0; c < t.nv; ++c) {
+  for (int c = 0; c < t.nv && (unrolled || t.nnz() <= kMaxGatherTable); ++c) {
     pack_to.push_back(static_cast<long long>(pack_to.size()));
     pack_from.push_back(static_cast<long long>(t.dof_user[c]) * (t.nv + 1));
     for (int r : t.ancestors(c)) {
@@ -314,12 +496,11 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
   // With L D L^T the forward solve has a unit diagonal and needs no Dinv.
   const bool ldlt = options.method == Method::kLDLT;
   v["step2_args"] = ldlt ? "g_L, g_z" : "g_L, g_Dinv, g_z";
-  if (!unrolled) {
-    auto as_comment = [](const std::string& text) {
-      std::string out;
-      for (const std::string& line : split_lines(text)) out += (out.empty() ? "// " : "\n// ") + line;
-      return out;
-    };
+  if (shape == Shape::kSupernodal) {
+    supernodal_steps(t, supernodes, k1.ops, k2.ops, k4.ops, v);
+  } else if (shape == Shape::kParallel) {
+    parallel_steps(t, options, k1.ops, k2.ops, k4.ops, v);
+  } else if (!unrolled) {
     const std::string why = fmt::format(
         "Unrolled, Step 1 alone would hold {} products (more than {}), too large to\n"
         "compile quickly: the runtime's loops over the same packed layout do the\n"
@@ -356,6 +537,13 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
                     "and writes only rows of its ancestors. Dinv[j] = 1 / pivot j.\n"
                     "Ops: {} add, {} mul, {} div, {} sqrt.",
                     method_note, k1.ops.add, k1.ops.mul, k1.ops.div, k1.ops.sqrt));
+    if (fused)
+      v["step1"] += "\n\n" + k1_dense.functions(
+          "step1_factor_dense", "const double* M, double* L, double* Dinv", "M, L, Dinv", true,
+          "---- Step 1 for solve_augmented: the same statements, each reading its entry of\n"
+          "the user's dense M (column-major, user order) where the packed variant reads\n"
+          "L: only the structurally non-zero entries of eq. (18) are read, and no\n"
+          "separate copy of M into L is made.");
     v["step2"] = k2.functions(
         "step2_forward", ldlt ? "const double* L, double* z" : "const double* L, const double* Dinv, double* z",
         ldlt ? "L, z" : "L, Dinv, z", false,
@@ -380,9 +568,41 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
   solver.ops = {{"1", k1.ops}, {"2", k2.ops}};
   // solve_augmented reads the structurally non-zero entries of the dense
   // inputs only (straight-line copies unless the model is large).
-  v["gather"] = gather_function(
-      "// M (dense, user order) -> packed L: the structurally non-zero entries, eq. (18).\n", "gather_M", "M", "L",
-      pack_to, pack_from, unrolled);
+  // Q in, qdd out: user order <-> Lemma 2 order.
+  std::vector<long long> lem, user;
+  for (int j = 0; j < t.nv; ++j) {
+    lem.push_back(j);
+    user.push_back(t.dof_user[j]);
+  }
+  v["gather"] = gather_function("// Q (user order) -> z (Lemma 2 order).\n", "gather_Q", "Q", "z", lem, user, unrolled) +
+                "\n\n" +
+                gather_function("// z (Lemma 2 order) -> qdd (user order).\n", "scatter_qdd", "z", "qdd", user, lem,
+                                unrolled);
+  if (!fused) {
+    v["gather"] += "\n\n";
+    if (unrolled || t.nnz() <= kMaxGatherTable) {
+      v["gather"] += gather_function(
+          "// M (dense, user order) -> packed L: the structurally non-zero entries, eq. (18).\n", "gather_M", "M",
+          "L", pack_to, pack_from, unrolled);
+    } else {
+      v["gather"] +=
+          "// M (dense, user order) -> packed L: the structurally non-zero entries, eq. (18);\n"
+          "// column c holds rows c, parent(c), ... (walked through the dof tree: no table).\n"
+          "void gather_M(const double* __restrict M, double* __restrict L) {\n"
+          "  std::int64_t k = 0;\n"
+          "  for (std::int32_t c = 0; c < nv; ++c) {\n"
+          "    const double* col = M + static_cast<std::int64_t>(kDofUser[c]) * nv;\n"
+          "    for (std::int32_t r = c; r >= 0; r = kDofParent[r]) L[k++] = col[kDofUser[r]];\n"
+          "  }\n"
+          "}";
+    }
+    v["step1"] +=
+        "\n\n// Step 1 for solve_augmented: gather M's structurally non-zero entries, then factor.\n"
+        "int step1_factor_dense(const double* M, double* L, double* Dinv) {\n"
+        "  gather_M(M, L);\n"
+        "  return step1_factor(L, Dinv);\n"
+        "}";
+  }
   if (nc == 0) {
     v["constraint_tables"] = "";
     v["constraint_workspace"] = "";

@@ -23,6 +23,9 @@ struct Options {
   std::string source_name;     ///< URDF base name, for the banner
   std::string cuts_name;       ///< cuts file base name or empty
   std::string header_name;     ///< base name of OUT.hpp, as included by OUT.cpp
+  /// Corollary 3 parallel variant (--threads): 0 auto (trees of at least
+  /// kMinParallelDofs dofs), 1 never, N >= 2 always with N OpenMP threads.
+  int threads = 0;
 };
 
 /// Floating-point operations of emitted code, counted as written.

@@ -18,6 +18,22 @@ inline constexpr std::size_t kMaxStatementsPerFunction = 4000;
 // runtime's table-driven loops for Steps 1, 2 and 4 instead (compile time
 // and source size; see docs/benchmarks.md for the measurements).
 inline constexpr long long kMaxUnrolledProducts = 200000;
+// Models whose unrolled Step 1 holds at most this many products also get a
+// second copy of it reading the user's dense M (solve_augmented), instead of
+// a gather pass before the factorization: small models, where that pass is
+// a tenth of the solve.
+inline constexpr long long kMaxFusedGatherProducts = 20000;
+// Trees whose dof tree holds a supernode (a run of single-child dofs, see
+// topology::dense_supernodes) of at least this many dofs get the supernodal
+// Steps 1, 2, 4 (Eigen's blocked dense kernels on those runs, with method
+// llt; docs/benchmarks.md for the measurement that chose it).
+inline constexpr int kMinDenseSupernode = 48;
+// --threads auto: trees with at least this many dofs get the parallel
+// variant (Corollary 3; docs/benchmarks.md).
+inline constexpr int kMinParallelDofs = 10000;
+// Above this many packed entries, solve_augmented's gather of M walks the dof
+// tree instead of reading a table of source indices (source size).
+inline constexpr long long kMaxGatherTable = 1 << 20;
 // Sums of more products than this are split into partial sums.
 inline constexpr std::size_t kMaxTermsPerStatement = 8;
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <iterator>
+#include <queue>
 #include <stdexcept>
 
 #include "ir/error.hpp"
@@ -248,6 +249,80 @@ int Tree::nc() const {
   int n = 0;
   for (const Cut& c : cuts) n += static_cast<int>(c.kept_rows.size());
   return n;
+}
+
+std::vector<Supernode> dense_supernodes(const Tree& tree, int min_size) {
+  std::vector<int> num_children(tree.nv, 0);
+  for (int d = 0; d < tree.nv; ++d)
+    if (tree.dof_parent[d] >= 0) ++num_children[tree.dof_parent[d]];
+  std::vector<Supernode> out;
+  long long offset = 0;
+  for (int j = 0; j < tree.nv;) {
+    int last = j;
+    while (tree.dof_parent[last] == last + 1 && num_children[last + 1] == 1) ++last;
+    const int size = last - j + 1;
+    if (size >= min_size) {
+      Supernode sn;
+      sn.first = j;
+      sn.size = size;
+      sn.rows = size + tree.dof_depth[last];
+      sn.offset = offset;
+      offset += static_cast<long long>(sn.rows) * size;
+      out.push_back(sn);
+    }
+    j = last + 1;
+  }
+  return out;
+}
+
+std::vector<Subtree> partition_subtrees(const Tree& tree, int parts, int max_separator) {
+  const int nv = tree.nv;
+  std::vector<long long> work(nv, 0);
+  std::vector<int> size(nv, 1);
+  std::vector<std::vector<int>> children(nv);
+  std::vector<int> roots;
+  long long total = 0;
+  for (int d = 0; d < nv; ++d) {  // children before parents (Lemma 2)
+    const long long k = tree.dof_depth[d] + 1;
+    work[d] += k * k;
+    total += k * k;
+    const int p = tree.dof_parent[d];
+    if (p >= 0) {
+      work[p] += work[d];
+      size[p] += size[d];
+      children[p].push_back(d);
+    } else {
+      roots.push_back(d);
+    }
+  }
+  std::priority_queue<std::pair<long long, int>> candidates;
+  for (int r : roots) candidates.push({work[r], r});
+  const long long limit = total / std::max(parts, 1);
+  int separator = 0;
+  while (!candidates.empty() && candidates.top().first > limit && separator < max_separator) {
+    const int r = candidates.top().second;
+    candidates.pop();
+    ++separator;
+    for (int c : children[r]) candidates.push({work[c], c});
+  }
+  std::vector<Subtree> out;
+  while (!candidates.empty()) {
+    const int r = candidates.top().second;
+    candidates.pop();
+    Subtree t;
+    t.first = r - size[r] + 1;
+    t.root = r;
+    t.path = tree.dof_depth[r];
+    t.work = work[r];
+    out.push_back(t);
+  }
+  std::sort(out.begin(), out.end(), [](const Subtree& a, const Subtree& b) { return a.first < b.first; });
+  long long buffer = 0;
+  for (Subtree& t : out) {
+    t.buffer = buffer;
+    buffer += static_cast<long long>(t.path) * t.path;
+  }
+  return out;
 }
 
 void check_lemma2(const Tree& tree) {

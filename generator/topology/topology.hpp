@@ -96,6 +96,37 @@ struct Tree {
   std::vector<std::vector<int>> descendants() const;
 };
 
+/// A dense supernode of the dof tree: dofs first .. first + size - 1, each the
+/// parent of the one before it and (but the first) with no other child, so
+/// their columns of L share one dense structure: the lower triangle of these
+/// rows plus a panel of the ancestors of the last (rows - size of them).
+/// `offset` is the start of its column-major rows x size block in the dense
+/// buffer of the supernodal factorization.
+struct Supernode {
+  int first = 0, size = 0, rows = 0;
+  long long offset = 0;
+};
+
+/// Maximal supernodes with at least min_size dofs, in increasing `first`;
+/// O(nv).
+std::vector<Supernode> dense_supernodes(const Tree& tree, int min_size);
+
+/// A complete subtree of the dof tree, dofs first .. root (contiguous in
+/// Lemma 2 post-order); `path` = number of ancestors of root (the separator
+/// rows it updates); `buffer` = start of its path x path update buffer.
+struct Subtree {
+  int first = 0, root = 0, path = 0;
+  long long buffer = 0;
+  long long work = 0;  ///< sum of (depth + 1)^2 over its dofs
+};
+
+/// Corollary 3 partition: disjoint subtrees below a separator near the
+/// root(s), found by repeatedly moving the root of the costliest subtree
+/// (factor work, sum of (depth + 1)^2 over its dofs) into the separator until
+/// no subtree holds more than total / parts of the work or the separator
+/// would exceed max_separator dofs.  In increasing `first`; O(nv log nv).
+std::vector<Subtree> partition_subtrees(const Tree& tree, int parts, int max_separator);
+
 /// Steps 1-3 above.  Throws jrgen::Error for trees whose mass matrix would be
 /// singular for structural reasons (a moving body that carries no mass).
 Tree build_tree(const ir::Robot& robot);

@@ -9,6 +9,9 @@
 //   eigen_sparse_llt           Eigen::SimplicialLLT (AMD ordering; pattern analysed
 //                              once, outside the loop): factorize(M) + solve(Q)
 //   generated_forward_dynamics forward_dynamics(q, v, tau, qdd, nullptr), full pipeline
+//   serial_solve_augmented, serial_forward_dynamics
+//                              with JRGEN_BENCH_SERIAL_NS: the same model generated
+//                              with --threads 1 (the main solver is the parallel one)
 //
 // Each benchmark carries its accuracy as counters (computed once, before timing,
 // on the same M and Q): err = ||qdd - qdd_ref|| / ||qdd_ref|| against an
@@ -29,6 +32,9 @@
 
 #include "bench_fixture.hpp"
 #include JRGEN_BENCH_HEADER
+#ifdef JRGEN_BENCH_SERIAL_HEADER
+#include JRGEN_BENCH_SERIAL_HEADER
+#endif
 
 namespace gen = JRGEN_BENCH_NS;
 
@@ -56,15 +62,18 @@ void add_accuracy(benchmark::State& state, const Problem& p, const Eigen::Vector
   }
 }
 
-void BM_generated_solve_augmented(benchmark::State& state) {
+using SolveFn = int (*)(const double*, const double*, const double*, const double*, double*, double*);
+using DynamicsFn = int (*)(const double*, const double*, const double*, double*, double*);
+
+void solve_augmented_loop(benchmark::State& state, SolveFn solve) {
   Problem& p = problem();
   Eigen::VectorXd x(p.nv);
-  if (gen::solve_augmented(p.M.data(), p.Q.data(), nullptr, nullptr, x.data(), nullptr) != 0) {
+  if (solve(p.M.data(), p.Q.data(), nullptr, nullptr, x.data(), nullptr) != 0) {
     state.SkipWithError(gen::last_error());
     return;
   }
   for (auto _ : state) {
-    const int status = gen::solve_augmented(p.M.data(), p.Q.data(), nullptr, nullptr, x.data(), nullptr);
+    const int status = solve(p.M.data(), p.Q.data(), nullptr, nullptr, x.data(), nullptr);
     benchmark::DoNotOptimize(status);
     benchmark::DoNotOptimize(x.data());
     benchmark::ClobberMemory();
@@ -115,14 +124,16 @@ void BM_eigen_sparse_llt(benchmark::State& state) {
   add_accuracy(state, p, x);
 }
 
-void BM_generated_forward_dynamics(benchmark::State& state) {
+void BM_generated_solve_augmented(benchmark::State& state) { solve_augmented_loop(state, &gen::solve_augmented); }
+
+void forward_dynamics_loop(benchmark::State& state, DynamicsFn fd) {
   Problem& p = problem();
   const int n = static_cast<int>(p.states.size());
   Eigen::VectorXd x(p.nv);
   int k = 0;
   for (auto _ : state) {
     const auto& s = p.states[k];
-    const int status = gen::forward_dynamics(s.q.data(), s.v.data(), s.tau.data(), x.data(), nullptr);
+    const int status = fd(s.q.data(), s.v.data(), s.tau.data(), x.data(), nullptr);
     benchmark::DoNotOptimize(status);
     benchmark::DoNotOptimize(x.data());
     benchmark::ClobberMemory();
@@ -130,12 +141,14 @@ void BM_generated_forward_dynamics(benchmark::State& state) {
   }
   // Accuracy on state 0, the state M and Q were built from.
   const auto& s = p.states[0];
-  if (gen::forward_dynamics(s.q.data(), s.v.data(), s.tau.data(), x.data(), nullptr) != 0) {
+  if (fd(s.q.data(), s.v.data(), s.tau.data(), x.data(), nullptr) != 0) {
     state.SkipWithError(gen::last_error());
     return;
   }
   add_accuracy(state, p, x);
 }
+
+void BM_generated_forward_dynamics(benchmark::State& state) { forward_dynamics_loop(state, &gen::forward_dynamics); }
 
 }  // namespace
 
@@ -148,16 +161,25 @@ int main(int argc, char** argv) {
   benchmark::AddCustomContext("nnz_lower_M", std::to_string(p.nnz_lower));
   benchmark::AddCustomContext("reference", p.reference_kind);
   const auto unit = p.nv >= 2000 ? benchmark::kMillisecond : benchmark::kMicrosecond;
-  benchmark::RegisterBenchmark("generated_solve_augmented", BM_generated_solve_augmented)->Unit(unit);
+  benchmark::RegisterBenchmark("generated_solve_augmented", BM_generated_solve_augmented)->Unit(unit)->UseRealTime();
   if (p.have_dense) {
-    benchmark::RegisterBenchmark("eigen_dense_llt", BM_eigen_dense_llt)->Unit(unit);
-    benchmark::RegisterBenchmark("eigen_dense_partial_lu", BM_eigen_dense_partial_lu)->Unit(unit);
+    benchmark::RegisterBenchmark("eigen_dense_llt", BM_eigen_dense_llt)->Unit(unit)->UseRealTime();
+    benchmark::RegisterBenchmark("eigen_dense_partial_lu", BM_eigen_dense_partial_lu)->Unit(unit)->UseRealTime();
   } else {
     std::fprintf(stderr, "nv = %d > JRGEN_BENCH_DENSE_MAX_NV = %d: dense LLT and LU skipped\n", p.nv,
                  p.dense_max_nv);
   }
-  benchmark::RegisterBenchmark("eigen_sparse_llt", BM_eigen_sparse_llt)->Unit(unit);
-  benchmark::RegisterBenchmark("generated_forward_dynamics", BM_generated_forward_dynamics)->Unit(unit);
+  benchmark::RegisterBenchmark("eigen_sparse_llt", BM_eigen_sparse_llt)->Unit(unit)->UseRealTime();
+  benchmark::RegisterBenchmark("generated_forward_dynamics", BM_generated_forward_dynamics)->Unit(unit)->UseRealTime();
+#ifdef JRGEN_BENCH_SERIAL_NS
+  // Parallel solvers: wall-clock time (real_time), not the calling thread's CPU time.
+  benchmark::RegisterBenchmark("serial_solve_augmented", [](benchmark::State& s) {
+    solve_augmented_loop(s, &JRGEN_BENCH_SERIAL_NS::solve_augmented);
+  })->Unit(unit)->UseRealTime();
+  benchmark::RegisterBenchmark("serial_forward_dynamics", [](benchmark::State& s) {
+    forward_dynamics_loop(s, &JRGEN_BENCH_SERIAL_NS::forward_dynamics);
+  })->Unit(unit)->UseRealTime();
+#endif
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   return 0;

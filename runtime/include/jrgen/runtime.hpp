@@ -16,6 +16,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <cstring>
 
 namespace jr {
 
@@ -242,6 +243,20 @@ void forward_packed(const Model& model, const double* L, const double* Dinv, boo
 
 /// Step 4, L^T x = z (ldlt: D^-1 applied first) in place.
 void backward_packed(const Model& model, const double* L, const double* Dinv, bool ldlt, double* z);
+
+/// True when some x[i], i < n, is a NaN or an infinity (every exponent bit
+/// set).  Integer tests the compiler may reorder and vectorize: no chain of
+/// dependent floating-point operations on the solver's hot path.
+inline bool any_non_finite(const double* x, std::int32_t n) {
+  constexpr std::uint64_t kExponent = 0x7ff0000000000000ULL;
+  std::uint64_t bad = 0;
+  for (std::int32_t i = 0; i < n; ++i) {
+    std::uint64_t bits;
+    std::memcpy(&bits, x + i, sizeof bits);
+    bad |= static_cast<std::uint64_t>((bits & kExponent) == kExponent);
+  }
+  return bad != 0;
+}
 
 /// Result codes of the generated solvers (INTERFACE.md section 4).
 enum Status : int {

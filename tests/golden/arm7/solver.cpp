@@ -107,36 +107,26 @@ int not_positive_definite(std::int32_t dof_lem, double pivot) {
               pivot);
 }
 
-// M (dense, user order) -> packed L: the structurally non-zero entries, eq. (18).
-void gather_M(const double* __restrict M, double* __restrict L) {
-  L[0] = M[48];
-  L[1] = M[47];
-  L[2] = M[46];
-  L[3] = M[45];
-  L[4] = M[44];
-  L[5] = M[43];
-  L[6] = M[42];
-  L[7] = M[40];
-  L[8] = M[39];
-  L[9] = M[38];
-  L[10] = M[37];
-  L[11] = M[36];
-  L[12] = M[35];
-  L[13] = M[32];
-  L[14] = M[31];
-  L[15] = M[30];
-  L[16] = M[29];
-  L[17] = M[28];
-  L[18] = M[24];
-  L[19] = M[23];
-  L[20] = M[22];
-  L[21] = M[21];
-  L[22] = M[16];
-  L[23] = M[15];
-  L[24] = M[14];
-  L[25] = M[8];
-  L[26] = M[7];
-  L[27] = M[0];
+// Q (user order) -> z (Lemma 2 order).
+void gather_Q(const double* __restrict Q, double* __restrict z) {
+  z[0] = Q[6];
+  z[1] = Q[5];
+  z[2] = Q[4];
+  z[3] = Q[3];
+  z[4] = Q[2];
+  z[5] = Q[1];
+  z[6] = Q[0];
+}
+
+// z (Lemma 2 order) -> qdd (user order).
+void scatter_qdd(const double* __restrict z, double* __restrict qdd) {
+  qdd[6] = z[0];
+  qdd[5] = z[1];
+  qdd[4] = z[2];
+  qdd[3] = z[3];
+  qdd[2] = z[4];
+  qdd[1] = z[5];
+  qdd[0] = z[6];
 }
 
 // ---- Step 1: factor M = L L^T in place (packed), eq. (25)-(26). ----
@@ -217,6 +207,84 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
   return 0;
 }
 
+// ---- Step 1 for solve_augmented: the same statements, each reading its entry of
+// the user's dense M (column-major, user order) where the packed variant reads
+// L: only the structurally non-zero entries of eq. (18) are read, and no
+// separate copy of M into L is made.
+int step1_factor_dense(const double* __restrict M, double* __restrict L, double* __restrict Dinv) {
+  // column 0: joint 'joint_7'; 0 descendant(s), 6 ancestor row(s)
+  {
+    const double d = M[48];
+    if (!(d > kPivotTolerance * M[48])) return not_positive_definite(0, d);
+    L[0] = std::sqrt(d);
+    Dinv[0] = 1.0 / L[0];
+    L[1] = M[47] * Dinv[0];
+    L[2] = M[46] * Dinv[0];
+    L[3] = M[45] * Dinv[0];
+    L[4] = M[44] * Dinv[0];
+    L[5] = M[43] * Dinv[0];
+    L[6] = M[42] * Dinv[0];
+  }
+  // column 1: joint 'joint_6'; 1 descendant(s), 5 ancestor row(s)
+  {
+    const double d = M[40] - L[1] * L[1];
+    if (!(d > kPivotTolerance * M[40])) return not_positive_definite(1, d);
+    L[7] = std::sqrt(d);
+    Dinv[1] = 1.0 / L[7];
+    L[8] = (M[39] - L[1] * L[2]) * Dinv[1];
+    L[9] = (M[38] - L[1] * L[3]) * Dinv[1];
+    L[10] = (M[37] - L[1] * L[4]) * Dinv[1];
+    L[11] = (M[36] - L[1] * L[5]) * Dinv[1];
+    L[12] = (M[35] - L[1] * L[6]) * Dinv[1];
+  }
+  // column 2: joint 'joint_5'; 2 descendant(s), 4 ancestor row(s)
+  {
+    const double d = M[32] - (L[2] * L[2] + L[8] * L[8]);
+    if (!(d > kPivotTolerance * M[32])) return not_positive_definite(2, d);
+    L[13] = std::sqrt(d);
+    Dinv[2] = 1.0 / L[13];
+    L[14] = (M[31] - (L[2] * L[3] + L[8] * L[9])) * Dinv[2];
+    L[15] = (M[30] - (L[2] * L[4] + L[8] * L[10])) * Dinv[2];
+    L[16] = (M[29] - (L[2] * L[5] + L[8] * L[11])) * Dinv[2];
+    L[17] = (M[28] - (L[2] * L[6] + L[8] * L[12])) * Dinv[2];
+  }
+  // column 3: joint 'joint_4'; 3 descendant(s), 3 ancestor row(s)
+  {
+    const double d = M[24] - (L[3] * L[3] + L[9] * L[9] + L[14] * L[14]);
+    if (!(d > kPivotTolerance * M[24])) return not_positive_definite(3, d);
+    L[18] = std::sqrt(d);
+    Dinv[3] = 1.0 / L[18];
+    L[19] = (M[23] - (L[3] * L[4] + L[9] * L[10] + L[14] * L[15])) * Dinv[3];
+    L[20] = (M[22] - (L[3] * L[5] + L[9] * L[11] + L[14] * L[16])) * Dinv[3];
+    L[21] = (M[21] - (L[3] * L[6] + L[9] * L[12] + L[14] * L[17])) * Dinv[3];
+  }
+  // column 4: joint 'joint_3'; 4 descendant(s), 2 ancestor row(s)
+  {
+    const double d = M[16] - (L[4] * L[4] + L[10] * L[10] + L[15] * L[15] + L[19] * L[19]);
+    if (!(d > kPivotTolerance * M[16])) return not_positive_definite(4, d);
+    L[22] = std::sqrt(d);
+    Dinv[4] = 1.0 / L[22];
+    L[23] = (M[15] - (L[4] * L[5] + L[10] * L[11] + L[15] * L[16] + L[19] * L[20])) * Dinv[4];
+    L[24] = (M[14] - (L[4] * L[6] + L[10] * L[12] + L[15] * L[17] + L[19] * L[21])) * Dinv[4];
+  }
+  // column 5: joint 'joint_2'; 5 descendant(s), 1 ancestor row(s)
+  {
+    const double d = M[8] - (L[5] * L[5] + L[11] * L[11] + L[16] * L[16] + L[20] * L[20] + L[23] * L[23]);
+    if (!(d > kPivotTolerance * M[8])) return not_positive_definite(5, d);
+    L[25] = std::sqrt(d);
+    Dinv[5] = 1.0 / L[25];
+    L[26] = (M[7] - (L[5] * L[6] + L[11] * L[12] + L[16] * L[17] + L[20] * L[21] + L[23] * L[24])) * Dinv[5];
+  }
+  // column 6: joint 'joint_1'; 6 descendant(s), 0 ancestor row(s)
+  {
+    const double d = M[0] - (L[6] * L[6] + L[12] * L[12] + L[17] * L[17] + L[21] * L[21] + L[24] * L[24] + L[26] * L[26]);
+    if (!(d > kPivotTolerance * M[0])) return not_positive_definite(6, d);
+    L[27] = std::sqrt(d);
+    Dinv[6] = 1.0 / L[27];
+  }
+  return 0;
+}
+
 // ---- Step 2: solve L z = Q (forward substitution), Remark 2: ----
 // row j sums over the family F(j) only.
 // Ops: 21 add, 28 mul, 0 div.
@@ -263,18 +331,16 @@ namespace {
 
 // Steps 1, 2 and 4 on the packed M in g_L and Q in g_z (a tree: no Step 3);
 // qdd in user order.
-int solve_tree(double* qdd) {
-  if (const int status = step1_factor(g_L, g_Dinv)) return status;
+int solve_tree(const double* M, double* qdd) {
+  // Step 1 reads M from the packed g_L, or (solve_augmented) from the dense M.
+  if (const int status = M != nullptr ? step1_factor_dense(M, g_L, g_Dinv) : step1_factor(g_L, g_Dinv))
+    return status;
   step2_forward(g_L, g_Dinv, g_z);
   step4_backward(g_L, g_Dinv, g_z);
-  // x * 0 is 0 for finite x and NaN otherwise: one test covers all entries;
-  // the scan that names the joint runs only on failure.
-  double finite = 0.0;
-  for (std::int32_t j = 0; j < nv; ++j) {
-    qdd[kDofUser[j]] = g_z[j];
-    finite += g_z[j] * 0.0;
-  }
-  if (!(finite == 0.0))
+  scatter_qdd(g_z, qdd);
+  // An integer test of the exponent bits per entry (no floating-point
+  // dependency chain); the scan that names the joint runs only on failure.
+  if (jr::any_non_finite(qdd, nv))
     for (std::int32_t i = 0; i < nv; ++i)
       if (!std::isfinite(qdd[i])) return fail(kNonFinite, "non-finite acceleration", i, qdd[i]);
   g_error[0] = '\0';
@@ -292,7 +358,7 @@ int forward_dynamics(const double* q, const double* v, const double* tau, double
   // Q = tau - h (Coriolis and centrifugal terms, gravity, joint damping).
   jr::bias_forces<true, true>(kModel, g_bodies, v, g_z);
   for (std::int32_t j = 0; j < nv; ++j) g_z[j] = tau[kDofUser[j]] - g_z[j];
-  return solve_tree(qdd);
+  return solve_tree(nullptr, qdd);
 }
 
 int solve_augmented(const double* M, const double* Q, const double* Phiq, const double* gamma,
@@ -300,10 +366,28 @@ int solve_augmented(const double* M, const double* Q, const double* Phiq, const 
   (void)Phiq;
   (void)gamma;
   (void)lambda;
-  gather_M(M, g_L);
-  for (std::int32_t j = 0; j < nv; ++j) g_z[j] = Q[kDofUser[j]];
-  return solve_tree(qdd);
+  gather_Q(Q, g_z);
+  return solve_tree(M, qdd);
 }
+
+#ifdef JRGEN_EXPOSE_STEPS
+// Opt-in, for per-step timings (tests/report): the inputs gathered as in
+// solve_augmented (Step 1 reads M itself), then the steps up to `last` only (0: none, 1: Step 1,
+// 2: Step 2, 8: Step 4; a tree has no Step 3).
+int solve_augmented_steps(const double* M, const double* Q, const double* Phiq, const double* gamma,
+                          int last) {
+  (void)Phiq;
+  (void)gamma;
+  gather_Q(Q, g_z);
+  if (last < 1) return kSuccess;
+  if (const int status = step1_factor_dense(M, g_L, g_Dinv)) return status;
+  if (last < 2) return kSuccess;
+  step2_forward(g_L, g_Dinv, g_z);
+  if (last < 8) return kSuccess;
+  step4_backward(g_L, g_Dinv, g_z);
+  return kSuccess;
+}
+#endif
 
 void constraints(const double* q, double* phi) {
   (void)q;

@@ -169,200 +169,66 @@ int not_positive_definite(std::int32_t dof_lem, double pivot) {
               pivot);
 }
 
-// M (dense, user order) -> packed L: the structurally non-zero entries, eq. (18).
-void gather_M(const double* __restrict M, double* __restrict L) {
-  L[0] = M[196];
-  L[1] = M[197];
-  L[2] = M[198];
-  L[3] = M[195];
-  L[4] = M[189];
-  L[5] = M[190];
-  L[6] = M[191];
-  L[7] = M[192];
-  L[8] = M[193];
-  L[9] = M[194];
-  L[10] = M[224];
-  L[11] = M[225];
-  L[12] = M[222];
-  L[13] = M[216];
-  L[14] = M[217];
-  L[15] = M[218];
-  L[16] = M[219];
-  L[17] = M[220];
-  L[18] = M[221];
-  L[19] = M[252];
-  L[20] = M[249];
-  L[21] = M[243];
-  L[22] = M[244];
-  L[23] = M[245];
-  L[24] = M[246];
-  L[25] = M[247];
-  L[26] = M[248];
-  L[27] = M[168];
-  L[28] = M[162];
-  L[29] = M[163];
-  L[30] = M[164];
-  L[31] = M[165];
-  L[32] = M[166];
-  L[33] = M[167];
-  L[34] = M[308];
-  L[35] = M[309];
-  L[36] = M[310];
-  L[37] = M[307];
-  L[38] = M[297];
-  L[39] = M[298];
-  L[40] = M[299];
-  L[41] = M[300];
-  L[42] = M[301];
-  L[43] = M[302];
-  L[44] = M[336];
-  L[45] = M[337];
-  L[46] = M[334];
-  L[47] = M[324];
-  L[48] = M[325];
-  L[49] = M[326];
-  L[50] = M[327];
-  L[51] = M[328];
-  L[52] = M[329];
-  L[53] = M[364];
-  L[54] = M[361];
-  L[55] = M[351];
-  L[56] = M[352];
-  L[57] = M[353];
-  L[58] = M[354];
-  L[59] = M[355];
-  L[60] = M[356];
-  L[61] = M[280];
-  L[62] = M[270];
-  L[63] = M[271];
-  L[64] = M[272];
-  L[65] = M[273];
-  L[66] = M[274];
-  L[67] = M[275];
-  L[68] = M[420];
-  L[69] = M[421];
-  L[70] = M[422];
-  L[71] = M[419];
-  L[72] = M[405];
-  L[73] = M[406];
-  L[74] = M[407];
-  L[75] = M[408];
-  L[76] = M[409];
-  L[77] = M[410];
-  L[78] = M[448];
-  L[79] = M[449];
-  L[80] = M[446];
-  L[81] = M[432];
-  L[82] = M[433];
-  L[83] = M[434];
-  L[84] = M[435];
-  L[85] = M[436];
-  L[86] = M[437];
-  L[87] = M[476];
-  L[88] = M[473];
-  L[89] = M[459];
-  L[90] = M[460];
-  L[91] = M[461];
-  L[92] = M[462];
-  L[93] = M[463];
-  L[94] = M[464];
-  L[95] = M[392];
-  L[96] = M[378];
-  L[97] = M[379];
-  L[98] = M[380];
-  L[99] = M[381];
-  L[100] = M[382];
-  L[101] = M[383];
-  L[102] = M[532];
-  L[103] = M[533];
-  L[104] = M[534];
-  L[105] = M[531];
-  L[106] = M[513];
-  L[107] = M[514];
-  L[108] = M[515];
-  L[109] = M[516];
-  L[110] = M[517];
-  L[111] = M[518];
-  L[112] = M[560];
-  L[113] = M[561];
-  L[114] = M[558];
-  L[115] = M[540];
-  L[116] = M[541];
-  L[117] = M[542];
-  L[118] = M[543];
-  L[119] = M[544];
-  L[120] = M[545];
-  L[121] = M[588];
-  L[122] = M[585];
-  L[123] = M[567];
-  L[124] = M[568];
-  L[125] = M[569];
-  L[126] = M[570];
-  L[127] = M[571];
-  L[128] = M[572];
-  L[129] = M[504];
-  L[130] = M[486];
-  L[131] = M[487];
-  L[132] = M[488];
-  L[133] = M[489];
-  L[134] = M[490];
-  L[135] = M[491];
-  L[136] = M[616];
-  L[137] = M[594];
-  L[138] = M[595];
-  L[139] = M[596];
-  L[140] = M[597];
-  L[141] = M[598];
-  L[142] = M[599];
-  L[143] = M[644];
-  L[144] = M[621];
-  L[145] = M[622];
-  L[146] = M[623];
-  L[147] = M[624];
-  L[148] = M[625];
-  L[149] = M[626];
-  L[150] = M[672];
-  L[151] = M[648];
-  L[152] = M[649];
-  L[153] = M[650];
-  L[154] = M[651];
-  L[155] = M[652];
-  L[156] = M[653];
-  L[157] = M[700];
-  L[158] = M[675];
-  L[159] = M[676];
-  L[160] = M[677];
-  L[161] = M[678];
-  L[162] = M[679];
-  L[163] = M[680];
-  L[164] = M[728];
-  L[165] = M[702];
-  L[166] = M[703];
-  L[167] = M[704];
-  L[168] = M[705];
-  L[169] = M[706];
-  L[170] = M[707];
-  L[171] = M[0];
-  L[172] = M[1];
-  L[173] = M[2];
-  L[174] = M[3];
-  L[175] = M[4];
-  L[176] = M[5];
-  L[177] = M[28];
-  L[178] = M[29];
-  L[179] = M[30];
-  L[180] = M[31];
-  L[181] = M[32];
-  L[182] = M[56];
-  L[183] = M[57];
-  L[184] = M[58];
-  L[185] = M[59];
-  L[186] = M[84];
-  L[187] = M[85];
-  L[188] = M[86];
-  L[189] = M[112];
-  L[190] = M[113];
-  L[191] = M[140];
+// Q (user order) -> z (Lemma 2 order).
+void gather_Q(const double* __restrict Q, double* __restrict z) {
+  z[0] = Q[7];
+  z[1] = Q[8];
+  z[2] = Q[9];
+  z[3] = Q[6];
+  z[4] = Q[11];
+  z[5] = Q[12];
+  z[6] = Q[13];
+  z[7] = Q[10];
+  z[8] = Q[15];
+  z[9] = Q[16];
+  z[10] = Q[17];
+  z[11] = Q[14];
+  z[12] = Q[19];
+  z[13] = Q[20];
+  z[14] = Q[21];
+  z[15] = Q[18];
+  z[16] = Q[22];
+  z[17] = Q[23];
+  z[18] = Q[24];
+  z[19] = Q[25];
+  z[20] = Q[26];
+  z[21] = Q[0];
+  z[22] = Q[1];
+  z[23] = Q[2];
+  z[24] = Q[3];
+  z[25] = Q[4];
+  z[26] = Q[5];
+}
+
+// z (Lemma 2 order) -> qdd (user order).
+void scatter_qdd(const double* __restrict z, double* __restrict qdd) {
+  qdd[7] = z[0];
+  qdd[8] = z[1];
+  qdd[9] = z[2];
+  qdd[6] = z[3];
+  qdd[11] = z[4];
+  qdd[12] = z[5];
+  qdd[13] = z[6];
+  qdd[10] = z[7];
+  qdd[15] = z[8];
+  qdd[16] = z[9];
+  qdd[17] = z[10];
+  qdd[14] = z[11];
+  qdd[19] = z[12];
+  qdd[20] = z[13];
+  qdd[21] = z[14];
+  qdd[18] = z[15];
+  qdd[22] = z[16];
+  qdd[23] = z[17];
+  qdd[24] = z[18];
+  qdd[25] = z[19];
+  qdd[26] = z[20];
+  qdd[0] = z[21];
+  qdd[1] = z[22];
+  qdd[2] = z[23];
+  qdd[3] = z[24];
+  qdd[4] = z[25];
+  qdd[5] = z[26];
 }
 
 // ---- Step 1: factor M = L L^T in place (packed), eq. (25)-(26). ----
@@ -823,6 +689,464 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
   return 0;
 }
 
+// ---- Step 1 for solve_augmented: the same statements, each reading its entry of
+// the user's dense M (column-major, user order) where the packed variant reads
+// L: only the structurally non-zero entries of eq. (18) are read, and no
+// separate copy of M into L is made.
+int step1_factor_dense(const double* __restrict M, double* __restrict L, double* __restrict Dinv) {
+  // column 0: joint 'rf_upper_ball' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
+  {
+    const double d = M[196];
+    if (!(d > kPivotTolerance * M[196])) return not_positive_definite(0, d);
+    L[0] = std::sqrt(d);
+    Dinv[0] = 1.0 / L[0];
+    L[1] = M[197] * Dinv[0];
+    L[2] = M[198] * Dinv[0];
+    L[3] = M[195] * Dinv[0];
+    L[4] = M[189] * Dinv[0];
+    L[5] = M[190] * Dinv[0];
+    L[6] = M[191] * Dinv[0];
+    L[7] = M[192] * Dinv[0];
+    L[8] = M[193] * Dinv[0];
+    L[9] = M[194] * Dinv[0];
+  }
+  // column 1: joint 'rf_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
+  {
+    const double d = M[224] - L[1] * L[1];
+    if (!(d > kPivotTolerance * M[224])) return not_positive_definite(1, d);
+    L[10] = std::sqrt(d);
+    Dinv[1] = 1.0 / L[10];
+    L[11] = (M[225] - L[1] * L[2]) * Dinv[1];
+    L[12] = (M[222] - L[1] * L[3]) * Dinv[1];
+    L[13] = (M[216] - L[1] * L[4]) * Dinv[1];
+    L[14] = (M[217] - L[1] * L[5]) * Dinv[1];
+    L[15] = (M[218] - L[1] * L[6]) * Dinv[1];
+    L[16] = (M[219] - L[1] * L[7]) * Dinv[1];
+    L[17] = (M[220] - L[1] * L[8]) * Dinv[1];
+    L[18] = (M[221] - L[1] * L[9]) * Dinv[1];
+  }
+  // column 2: joint 'rf_upper_ball' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
+  {
+    const double d = M[252] - (L[2] * L[2] + L[11] * L[11]);
+    if (!(d > kPivotTolerance * M[252])) return not_positive_definite(2, d);
+    L[19] = std::sqrt(d);
+    Dinv[2] = 1.0 / L[19];
+    L[20] = (M[249] - (L[2] * L[3] + L[11] * L[12])) * Dinv[2];
+    L[21] = (M[243] - (L[2] * L[4] + L[11] * L[13])) * Dinv[2];
+    L[22] = (M[244] - (L[2] * L[5] + L[11] * L[14])) * Dinv[2];
+    L[23] = (M[245] - (L[2] * L[6] + L[11] * L[15])) * Dinv[2];
+    L[24] = (M[246] - (L[2] * L[7] + L[11] * L[16])) * Dinv[2];
+    L[25] = (M[247] - (L[2] * L[8] + L[11] * L[17])) * Dinv[2];
+    L[26] = (M[248] - (L[2] * L[9] + L[11] * L[18])) * Dinv[2];
+  }
+  // column 3: joint 'rf_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
+  {
+    const double d = M[168] - (L[3] * L[3] + L[12] * L[12] + L[20] * L[20]);
+    if (!(d > kPivotTolerance * M[168])) return not_positive_definite(3, d);
+    L[27] = std::sqrt(d);
+    Dinv[3] = 1.0 / L[27];
+    L[28] = (M[162] - (L[3] * L[4] + L[12] * L[13] + L[20] * L[21])) * Dinv[3];
+    L[29] = (M[163] - (L[3] * L[5] + L[12] * L[14] + L[20] * L[22])) * Dinv[3];
+    L[30] = (M[164] - (L[3] * L[6] + L[12] * L[15] + L[20] * L[23])) * Dinv[3];
+    L[31] = (M[165] - (L[3] * L[7] + L[12] * L[16] + L[20] * L[24])) * Dinv[3];
+    L[32] = (M[166] - (L[3] * L[8] + L[12] * L[17] + L[20] * L[25])) * Dinv[3];
+    L[33] = (M[167] - (L[3] * L[9] + L[12] * L[18] + L[20] * L[26])) * Dinv[3];
+  }
+  // column 4: joint 'lf_upper_ball' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
+  {
+    const double d = M[308];
+    if (!(d > kPivotTolerance * M[308])) return not_positive_definite(4, d);
+    L[34] = std::sqrt(d);
+    Dinv[4] = 1.0 / L[34];
+    L[35] = M[309] * Dinv[4];
+    L[36] = M[310] * Dinv[4];
+    L[37] = M[307] * Dinv[4];
+    L[38] = M[297] * Dinv[4];
+    L[39] = M[298] * Dinv[4];
+    L[40] = M[299] * Dinv[4];
+    L[41] = M[300] * Dinv[4];
+    L[42] = M[301] * Dinv[4];
+    L[43] = M[302] * Dinv[4];
+  }
+  // column 5: joint 'lf_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
+  {
+    const double d = M[336] - L[35] * L[35];
+    if (!(d > kPivotTolerance * M[336])) return not_positive_definite(5, d);
+    L[44] = std::sqrt(d);
+    Dinv[5] = 1.0 / L[44];
+    L[45] = (M[337] - L[35] * L[36]) * Dinv[5];
+    L[46] = (M[334] - L[35] * L[37]) * Dinv[5];
+    L[47] = (M[324] - L[35] * L[38]) * Dinv[5];
+    L[48] = (M[325] - L[35] * L[39]) * Dinv[5];
+    L[49] = (M[326] - L[35] * L[40]) * Dinv[5];
+    L[50] = (M[327] - L[35] * L[41]) * Dinv[5];
+    L[51] = (M[328] - L[35] * L[42]) * Dinv[5];
+    L[52] = (M[329] - L[35] * L[43]) * Dinv[5];
+  }
+  // column 6: joint 'lf_upper_ball' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
+  {
+    const double d = M[364] - (L[36] * L[36] + L[45] * L[45]);
+    if (!(d > kPivotTolerance * M[364])) return not_positive_definite(6, d);
+    L[53] = std::sqrt(d);
+    Dinv[6] = 1.0 / L[53];
+    L[54] = (M[361] - (L[36] * L[37] + L[45] * L[46])) * Dinv[6];
+    L[55] = (M[351] - (L[36] * L[38] + L[45] * L[47])) * Dinv[6];
+    L[56] = (M[352] - (L[36] * L[39] + L[45] * L[48])) * Dinv[6];
+    L[57] = (M[353] - (L[36] * L[40] + L[45] * L[49])) * Dinv[6];
+    L[58] = (M[354] - (L[36] * L[41] + L[45] * L[50])) * Dinv[6];
+    L[59] = (M[355] - (L[36] * L[42] + L[45] * L[51])) * Dinv[6];
+    L[60] = (M[356] - (L[36] * L[43] + L[45] * L[52])) * Dinv[6];
+  }
+  // column 7: joint 'lf_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
+  {
+    const double d = M[280] - (L[37] * L[37] + L[46] * L[46] + L[54] * L[54]);
+    if (!(d > kPivotTolerance * M[280])) return not_positive_definite(7, d);
+    L[61] = std::sqrt(d);
+    Dinv[7] = 1.0 / L[61];
+    L[62] = (M[270] - (L[37] * L[38] + L[46] * L[47] + L[54] * L[55])) * Dinv[7];
+    L[63] = (M[271] - (L[37] * L[39] + L[46] * L[48] + L[54] * L[56])) * Dinv[7];
+    L[64] = (M[272] - (L[37] * L[40] + L[46] * L[49] + L[54] * L[57])) * Dinv[7];
+    L[65] = (M[273] - (L[37] * L[41] + L[46] * L[50] + L[54] * L[58])) * Dinv[7];
+    L[66] = (M[274] - (L[37] * L[42] + L[46] * L[51] + L[54] * L[59])) * Dinv[7];
+    L[67] = (M[275] - (L[37] * L[43] + L[46] * L[52] + L[54] * L[60])) * Dinv[7];
+  }
+  // column 8: joint 'rr_upper_ball' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
+  {
+    const double d = M[420];
+    if (!(d > kPivotTolerance * M[420])) return not_positive_definite(8, d);
+    L[68] = std::sqrt(d);
+    Dinv[8] = 1.0 / L[68];
+    L[69] = M[421] * Dinv[8];
+    L[70] = M[422] * Dinv[8];
+    L[71] = M[419] * Dinv[8];
+    L[72] = M[405] * Dinv[8];
+    L[73] = M[406] * Dinv[8];
+    L[74] = M[407] * Dinv[8];
+    L[75] = M[408] * Dinv[8];
+    L[76] = M[409] * Dinv[8];
+    L[77] = M[410] * Dinv[8];
+  }
+  // column 9: joint 'rr_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
+  {
+    const double d = M[448] - L[69] * L[69];
+    if (!(d > kPivotTolerance * M[448])) return not_positive_definite(9, d);
+    L[78] = std::sqrt(d);
+    Dinv[9] = 1.0 / L[78];
+    L[79] = (M[449] - L[69] * L[70]) * Dinv[9];
+    L[80] = (M[446] - L[69] * L[71]) * Dinv[9];
+    L[81] = (M[432] - L[69] * L[72]) * Dinv[9];
+    L[82] = (M[433] - L[69] * L[73]) * Dinv[9];
+    L[83] = (M[434] - L[69] * L[74]) * Dinv[9];
+    L[84] = (M[435] - L[69] * L[75]) * Dinv[9];
+    L[85] = (M[436] - L[69] * L[76]) * Dinv[9];
+    L[86] = (M[437] - L[69] * L[77]) * Dinv[9];
+  }
+  // column 10: joint 'rr_upper_ball' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
+  {
+    const double d = M[476] - (L[70] * L[70] + L[79] * L[79]);
+    if (!(d > kPivotTolerance * M[476])) return not_positive_definite(10, d);
+    L[87] = std::sqrt(d);
+    Dinv[10] = 1.0 / L[87];
+    L[88] = (M[473] - (L[70] * L[71] + L[79] * L[80])) * Dinv[10];
+    L[89] = (M[459] - (L[70] * L[72] + L[79] * L[81])) * Dinv[10];
+    L[90] = (M[460] - (L[70] * L[73] + L[79] * L[82])) * Dinv[10];
+    L[91] = (M[461] - (L[70] * L[74] + L[79] * L[83])) * Dinv[10];
+    L[92] = (M[462] - (L[70] * L[75] + L[79] * L[84])) * Dinv[10];
+    L[93] = (M[463] - (L[70] * L[76] + L[79] * L[85])) * Dinv[10];
+    L[94] = (M[464] - (L[70] * L[77] + L[79] * L[86])) * Dinv[10];
+  }
+  // column 11: joint 'rr_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
+  {
+    const double d = M[392] - (L[71] * L[71] + L[80] * L[80] + L[88] * L[88]);
+    if (!(d > kPivotTolerance * M[392])) return not_positive_definite(11, d);
+    L[95] = std::sqrt(d);
+    Dinv[11] = 1.0 / L[95];
+    L[96] = (M[378] - (L[71] * L[72] + L[80] * L[81] + L[88] * L[89])) * Dinv[11];
+    L[97] = (M[379] - (L[71] * L[73] + L[80] * L[82] + L[88] * L[90])) * Dinv[11];
+    L[98] = (M[380] - (L[71] * L[74] + L[80] * L[83] + L[88] * L[91])) * Dinv[11];
+    L[99] = (M[381] - (L[71] * L[75] + L[80] * L[84] + L[88] * L[92])) * Dinv[11];
+    L[100] = (M[382] - (L[71] * L[76] + L[80] * L[85] + L[88] * L[93])) * Dinv[11];
+    L[101] = (M[383] - (L[71] * L[77] + L[80] * L[86] + L[88] * L[94])) * Dinv[11];
+  }
+  // column 12: joint 'lr_upper_ball' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
+  {
+    const double d = M[532];
+    if (!(d > kPivotTolerance * M[532])) return not_positive_definite(12, d);
+    L[102] = std::sqrt(d);
+    Dinv[12] = 1.0 / L[102];
+    L[103] = M[533] * Dinv[12];
+    L[104] = M[534] * Dinv[12];
+    L[105] = M[531] * Dinv[12];
+    L[106] = M[513] * Dinv[12];
+    L[107] = M[514] * Dinv[12];
+    L[108] = M[515] * Dinv[12];
+    L[109] = M[516] * Dinv[12];
+    L[110] = M[517] * Dinv[12];
+    L[111] = M[518] * Dinv[12];
+  }
+  // column 13: joint 'lr_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
+  {
+    const double d = M[560] - L[103] * L[103];
+    if (!(d > kPivotTolerance * M[560])) return not_positive_definite(13, d);
+    L[112] = std::sqrt(d);
+    Dinv[13] = 1.0 / L[112];
+    L[113] = (M[561] - L[103] * L[104]) * Dinv[13];
+    L[114] = (M[558] - L[103] * L[105]) * Dinv[13];
+    L[115] = (M[540] - L[103] * L[106]) * Dinv[13];
+    L[116] = (M[541] - L[103] * L[107]) * Dinv[13];
+    L[117] = (M[542] - L[103] * L[108]) * Dinv[13];
+    L[118] = (M[543] - L[103] * L[109]) * Dinv[13];
+    L[119] = (M[544] - L[103] * L[110]) * Dinv[13];
+    L[120] = (M[545] - L[103] * L[111]) * Dinv[13];
+  }
+  // column 14: joint 'lr_upper_ball' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
+  {
+    const double d = M[588] - (L[104] * L[104] + L[113] * L[113]);
+    if (!(d > kPivotTolerance * M[588])) return not_positive_definite(14, d);
+    L[121] = std::sqrt(d);
+    Dinv[14] = 1.0 / L[121];
+    L[122] = (M[585] - (L[104] * L[105] + L[113] * L[114])) * Dinv[14];
+    L[123] = (M[567] - (L[104] * L[106] + L[113] * L[115])) * Dinv[14];
+    L[124] = (M[568] - (L[104] * L[107] + L[113] * L[116])) * Dinv[14];
+    L[125] = (M[569] - (L[104] * L[108] + L[113] * L[117])) * Dinv[14];
+    L[126] = (M[570] - (L[104] * L[109] + L[113] * L[118])) * Dinv[14];
+    L[127] = (M[571] - (L[104] * L[110] + L[113] * L[119])) * Dinv[14];
+    L[128] = (M[572] - (L[104] * L[111] + L[113] * L[120])) * Dinv[14];
+  }
+  // column 15: joint 'lr_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
+  {
+    const double d = M[504] - (L[105] * L[105] + L[114] * L[114] + L[122] * L[122]);
+    if (!(d > kPivotTolerance * M[504])) return not_positive_definite(15, d);
+    L[129] = std::sqrt(d);
+    Dinv[15] = 1.0 / L[129];
+    L[130] = (M[486] - (L[105] * L[106] + L[114] * L[115] + L[122] * L[123])) * Dinv[15];
+    L[131] = (M[487] - (L[105] * L[107] + L[114] * L[116] + L[122] * L[124])) * Dinv[15];
+    L[132] = (M[488] - (L[105] * L[108] + L[114] * L[117] + L[122] * L[125])) * Dinv[15];
+    L[133] = (M[489] - (L[105] * L[109] + L[114] * L[118] + L[122] * L[126])) * Dinv[15];
+    L[134] = (M[490] - (L[105] * L[110] + L[114] * L[119] + L[122] * L[127])) * Dinv[15];
+    L[135] = (M[491] - (L[105] * L[111] + L[114] * L[120] + L[122] * L[128])) * Dinv[15];
+  }
+  // column 16: joint 'rack_slide'; 0 descendant(s), 6 ancestor row(s)
+  {
+    const double d = M[616];
+    if (!(d > kPivotTolerance * M[616])) return not_positive_definite(16, d);
+    L[136] = std::sqrt(d);
+    Dinv[16] = 1.0 / L[136];
+    L[137] = M[594] * Dinv[16];
+    L[138] = M[595] * Dinv[16];
+    L[139] = M[596] * Dinv[16];
+    L[140] = M[597] * Dinv[16];
+    L[141] = M[598] * Dinv[16];
+    L[142] = M[599] * Dinv[16];
+  }
+  // column 17: joint 'rf_lower_pivot'; 0 descendant(s), 6 ancestor row(s)
+  {
+    const double d = M[644];
+    if (!(d > kPivotTolerance * M[644])) return not_positive_definite(17, d);
+    L[143] = std::sqrt(d);
+    Dinv[17] = 1.0 / L[143];
+    L[144] = M[621] * Dinv[17];
+    L[145] = M[622] * Dinv[17];
+    L[146] = M[623] * Dinv[17];
+    L[147] = M[624] * Dinv[17];
+    L[148] = M[625] * Dinv[17];
+    L[149] = M[626] * Dinv[17];
+  }
+  // column 18: joint 'lf_lower_pivot'; 0 descendant(s), 6 ancestor row(s)
+  {
+    const double d = M[672];
+    if (!(d > kPivotTolerance * M[672])) return not_positive_definite(18, d);
+    L[150] = std::sqrt(d);
+    Dinv[18] = 1.0 / L[150];
+    L[151] = M[648] * Dinv[18];
+    L[152] = M[649] * Dinv[18];
+    L[153] = M[650] * Dinv[18];
+    L[154] = M[651] * Dinv[18];
+    L[155] = M[652] * Dinv[18];
+    L[156] = M[653] * Dinv[18];
+  }
+  // column 19: joint 'rr_lower_pivot'; 0 descendant(s), 6 ancestor row(s)
+  {
+    const double d = M[700];
+    if (!(d > kPivotTolerance * M[700])) return not_positive_definite(19, d);
+    L[157] = std::sqrt(d);
+    Dinv[19] = 1.0 / L[157];
+    L[158] = M[675] * Dinv[19];
+    L[159] = M[676] * Dinv[19];
+    L[160] = M[677] * Dinv[19];
+    L[161] = M[678] * Dinv[19];
+    L[162] = M[679] * Dinv[19];
+    L[163] = M[680] * Dinv[19];
+  }
+  // column 20: joint 'lr_lower_pivot'; 0 descendant(s), 6 ancestor row(s)
+  {
+    const double d = M[728];
+    if (!(d > kPivotTolerance * M[728])) return not_positive_definite(20, d);
+    L[164] = std::sqrt(d);
+    Dinv[20] = 1.0 / L[164];
+    L[165] = M[702] * Dinv[20];
+    L[166] = M[703] * Dinv[20];
+    L[167] = M[704] * Dinv[20];
+    L[168] = M[705] * Dinv[20];
+    L[169] = M[706] * Dinv[20];
+    L[170] = M[707] * Dinv[20];
+  }
+  // column 21: joint 'chassis_floating' (coordinate 1 of 6); 21 descendant(s), 5 ancestor row(s)
+  {
+    double sd = L[4] * L[4] + L[13] * L[13] + L[21] * L[21] + L[28] * L[28] + L[38] * L[38] + L[47] * L[47] + L[55] * L[55] + L[62] * L[62];
+    sd += L[72] * L[72] + L[81] * L[81] + L[89] * L[89] + L[96] * L[96] + L[106] * L[106] + L[115] * L[115] + L[123] * L[123] + L[130] * L[130];
+    sd += L[137] * L[137] + L[144] * L[144] + L[151] * L[151] + L[158] * L[158] + L[165] * L[165];
+    const double d = M[0] - sd;
+    if (!(d > kPivotTolerance * M[0])) return not_positive_definite(21, d);
+    L[171] = std::sqrt(d);
+    Dinv[21] = 1.0 / L[171];
+    {
+      double s = L[4] * L[5] + L[13] * L[14] + L[21] * L[22] + L[28] * L[29] + L[38] * L[39] + L[47] * L[48] + L[55] * L[56] + L[62] * L[63];
+      s += L[72] * L[73] + L[81] * L[82] + L[89] * L[90] + L[96] * L[97] + L[106] * L[107] + L[115] * L[116] + L[123] * L[124] + L[130] * L[131];
+      s += L[137] * L[138] + L[144] * L[145] + L[151] * L[152] + L[158] * L[159] + L[165] * L[166];
+      L[172] = (M[1] - s) * Dinv[21];
+    }
+    {
+      double s = L[4] * L[6] + L[13] * L[15] + L[21] * L[23] + L[28] * L[30] + L[38] * L[40] + L[47] * L[49] + L[55] * L[57] + L[62] * L[64];
+      s += L[72] * L[74] + L[81] * L[83] + L[89] * L[91] + L[96] * L[98] + L[106] * L[108] + L[115] * L[117] + L[123] * L[125] + L[130] * L[132];
+      s += L[137] * L[139] + L[144] * L[146] + L[151] * L[153] + L[158] * L[160] + L[165] * L[167];
+      L[173] = (M[2] - s) * Dinv[21];
+    }
+    {
+      double s = L[4] * L[7] + L[13] * L[16] + L[21] * L[24] + L[28] * L[31] + L[38] * L[41] + L[47] * L[50] + L[55] * L[58] + L[62] * L[65];
+      s += L[72] * L[75] + L[81] * L[84] + L[89] * L[92] + L[96] * L[99] + L[106] * L[109] + L[115] * L[118] + L[123] * L[126] + L[130] * L[133];
+      s += L[137] * L[140] + L[144] * L[147] + L[151] * L[154] + L[158] * L[161] + L[165] * L[168];
+      L[174] = (M[3] - s) * Dinv[21];
+    }
+    {
+      double s = L[4] * L[8] + L[13] * L[17] + L[21] * L[25] + L[28] * L[32] + L[38] * L[42] + L[47] * L[51] + L[55] * L[59] + L[62] * L[66];
+      s += L[72] * L[76] + L[81] * L[85] + L[89] * L[93] + L[96] * L[100] + L[106] * L[110] + L[115] * L[119] + L[123] * L[127] + L[130] * L[134];
+      s += L[137] * L[141] + L[144] * L[148] + L[151] * L[155] + L[158] * L[162] + L[165] * L[169];
+      L[175] = (M[4] - s) * Dinv[21];
+    }
+    {
+      double s = L[4] * L[9] + L[13] * L[18] + L[21] * L[26] + L[28] * L[33] + L[38] * L[43] + L[47] * L[52] + L[55] * L[60] + L[62] * L[67];
+      s += L[72] * L[77] + L[81] * L[86] + L[89] * L[94] + L[96] * L[101] + L[106] * L[111] + L[115] * L[120] + L[123] * L[128] + L[130] * L[135];
+      s += L[137] * L[142] + L[144] * L[149] + L[151] * L[156] + L[158] * L[163] + L[165] * L[170];
+      L[176] = (M[5] - s) * Dinv[21];
+    }
+  }
+  // column 22: joint 'chassis_floating' (coordinate 2 of 6); 22 descendant(s), 4 ancestor row(s)
+  {
+    double sd = L[5] * L[5] + L[14] * L[14] + L[22] * L[22] + L[29] * L[29] + L[39] * L[39] + L[48] * L[48] + L[56] * L[56] + L[63] * L[63];
+    sd += L[73] * L[73] + L[82] * L[82] + L[90] * L[90] + L[97] * L[97] + L[107] * L[107] + L[116] * L[116] + L[124] * L[124] + L[131] * L[131];
+    sd += L[138] * L[138] + L[145] * L[145] + L[152] * L[152] + L[159] * L[159] + L[166] * L[166] + L[172] * L[172];
+    const double d = M[28] - sd;
+    if (!(d > kPivotTolerance * M[28])) return not_positive_definite(22, d);
+    L[177] = std::sqrt(d);
+    Dinv[22] = 1.0 / L[177];
+    {
+      double s = L[5] * L[6] + L[14] * L[15] + L[22] * L[23] + L[29] * L[30] + L[39] * L[40] + L[48] * L[49] + L[56] * L[57] + L[63] * L[64];
+      s += L[73] * L[74] + L[82] * L[83] + L[90] * L[91] + L[97] * L[98] + L[107] * L[108] + L[116] * L[117] + L[124] * L[125] + L[131] * L[132];
+      s += L[138] * L[139] + L[145] * L[146] + L[152] * L[153] + L[159] * L[160] + L[166] * L[167] + L[172] * L[173];
+      L[178] = (M[29] - s) * Dinv[22];
+    }
+    {
+      double s = L[5] * L[7] + L[14] * L[16] + L[22] * L[24] + L[29] * L[31] + L[39] * L[41] + L[48] * L[50] + L[56] * L[58] + L[63] * L[65];
+      s += L[73] * L[75] + L[82] * L[84] + L[90] * L[92] + L[97] * L[99] + L[107] * L[109] + L[116] * L[118] + L[124] * L[126] + L[131] * L[133];
+      s += L[138] * L[140] + L[145] * L[147] + L[152] * L[154] + L[159] * L[161] + L[166] * L[168] + L[172] * L[174];
+      L[179] = (M[30] - s) * Dinv[22];
+    }
+    {
+      double s = L[5] * L[8] + L[14] * L[17] + L[22] * L[25] + L[29] * L[32] + L[39] * L[42] + L[48] * L[51] + L[56] * L[59] + L[63] * L[66];
+      s += L[73] * L[76] + L[82] * L[85] + L[90] * L[93] + L[97] * L[100] + L[107] * L[110] + L[116] * L[119] + L[124] * L[127] + L[131] * L[134];
+      s += L[138] * L[141] + L[145] * L[148] + L[152] * L[155] + L[159] * L[162] + L[166] * L[169] + L[172] * L[175];
+      L[180] = (M[31] - s) * Dinv[22];
+    }
+    {
+      double s = L[5] * L[9] + L[14] * L[18] + L[22] * L[26] + L[29] * L[33] + L[39] * L[43] + L[48] * L[52] + L[56] * L[60] + L[63] * L[67];
+      s += L[73] * L[77] + L[82] * L[86] + L[90] * L[94] + L[97] * L[101] + L[107] * L[111] + L[116] * L[120] + L[124] * L[128] + L[131] * L[135];
+      s += L[138] * L[142] + L[145] * L[149] + L[152] * L[156] + L[159] * L[163] + L[166] * L[170] + L[172] * L[176];
+      L[181] = (M[32] - s) * Dinv[22];
+    }
+  }
+  // column 23: joint 'chassis_floating' (coordinate 3 of 6); 23 descendant(s), 3 ancestor row(s)
+  {
+    double sd = L[6] * L[6] + L[15] * L[15] + L[23] * L[23] + L[30] * L[30] + L[40] * L[40] + L[49] * L[49] + L[57] * L[57] + L[64] * L[64];
+    sd += L[74] * L[74] + L[83] * L[83] + L[91] * L[91] + L[98] * L[98] + L[108] * L[108] + L[117] * L[117] + L[125] * L[125] + L[132] * L[132];
+    sd += L[139] * L[139] + L[146] * L[146] + L[153] * L[153] + L[160] * L[160] + L[167] * L[167] + L[173] * L[173] + L[178] * L[178];
+    const double d = M[56] - sd;
+    if (!(d > kPivotTolerance * M[56])) return not_positive_definite(23, d);
+    L[182] = std::sqrt(d);
+    Dinv[23] = 1.0 / L[182];
+    {
+      double s = L[6] * L[7] + L[15] * L[16] + L[23] * L[24] + L[30] * L[31] + L[40] * L[41] + L[49] * L[50] + L[57] * L[58] + L[64] * L[65];
+      s += L[74] * L[75] + L[83] * L[84] + L[91] * L[92] + L[98] * L[99] + L[108] * L[109] + L[117] * L[118] + L[125] * L[126] + L[132] * L[133];
+      s += L[139] * L[140] + L[146] * L[147] + L[153] * L[154] + L[160] * L[161] + L[167] * L[168] + L[173] * L[174] + L[178] * L[179];
+      L[183] = (M[57] - s) * Dinv[23];
+    }
+    {
+      double s = L[6] * L[8] + L[15] * L[17] + L[23] * L[25] + L[30] * L[32] + L[40] * L[42] + L[49] * L[51] + L[57] * L[59] + L[64] * L[66];
+      s += L[74] * L[76] + L[83] * L[85] + L[91] * L[93] + L[98] * L[100] + L[108] * L[110] + L[117] * L[119] + L[125] * L[127] + L[132] * L[134];
+      s += L[139] * L[141] + L[146] * L[148] + L[153] * L[155] + L[160] * L[162] + L[167] * L[169] + L[173] * L[175] + L[178] * L[180];
+      L[184] = (M[58] - s) * Dinv[23];
+    }
+    {
+      double s = L[6] * L[9] + L[15] * L[18] + L[23] * L[26] + L[30] * L[33] + L[40] * L[43] + L[49] * L[52] + L[57] * L[60] + L[64] * L[67];
+      s += L[74] * L[77] + L[83] * L[86] + L[91] * L[94] + L[98] * L[101] + L[108] * L[111] + L[117] * L[120] + L[125] * L[128] + L[132] * L[135];
+      s += L[139] * L[142] + L[146] * L[149] + L[153] * L[156] + L[160] * L[163] + L[167] * L[170] + L[173] * L[176] + L[178] * L[181];
+      L[185] = (M[59] - s) * Dinv[23];
+    }
+  }
+  // column 24: joint 'chassis_floating' (coordinate 4 of 6); 24 descendant(s), 2 ancestor row(s)
+  {
+    double sd = L[7] * L[7] + L[16] * L[16] + L[24] * L[24] + L[31] * L[31] + L[41] * L[41] + L[50] * L[50] + L[58] * L[58] + L[65] * L[65];
+    sd += L[75] * L[75] + L[84] * L[84] + L[92] * L[92] + L[99] * L[99] + L[109] * L[109] + L[118] * L[118] + L[126] * L[126] + L[133] * L[133];
+    sd += L[140] * L[140] + L[147] * L[147] + L[154] * L[154] + L[161] * L[161] + L[168] * L[168] + L[174] * L[174] + L[179] * L[179] + L[183] * L[183];
+    const double d = M[84] - sd;
+    if (!(d > kPivotTolerance * M[84])) return not_positive_definite(24, d);
+    L[186] = std::sqrt(d);
+    Dinv[24] = 1.0 / L[186];
+    {
+      double s = L[7] * L[8] + L[16] * L[17] + L[24] * L[25] + L[31] * L[32] + L[41] * L[42] + L[50] * L[51] + L[58] * L[59] + L[65] * L[66];
+      s += L[75] * L[76] + L[84] * L[85] + L[92] * L[93] + L[99] * L[100] + L[109] * L[110] + L[118] * L[119] + L[126] * L[127] + L[133] * L[134];
+      s += L[140] * L[141] + L[147] * L[148] + L[154] * L[155] + L[161] * L[162] + L[168] * L[169] + L[174] * L[175] + L[179] * L[180] + L[183] * L[184];
+      L[187] = (M[85] - s) * Dinv[24];
+    }
+    {
+      double s = L[7] * L[9] + L[16] * L[18] + L[24] * L[26] + L[31] * L[33] + L[41] * L[43] + L[50] * L[52] + L[58] * L[60] + L[65] * L[67];
+      s += L[75] * L[77] + L[84] * L[86] + L[92] * L[94] + L[99] * L[101] + L[109] * L[111] + L[118] * L[120] + L[126] * L[128] + L[133] * L[135];
+      s += L[140] * L[142] + L[147] * L[149] + L[154] * L[156] + L[161] * L[163] + L[168] * L[170] + L[174] * L[176] + L[179] * L[181] + L[183] * L[185];
+      L[188] = (M[86] - s) * Dinv[24];
+    }
+  }
+  // column 25: joint 'chassis_floating' (coordinate 5 of 6); 25 descendant(s), 1 ancestor row(s)
+  {
+    double sd = L[8] * L[8] + L[17] * L[17] + L[25] * L[25] + L[32] * L[32] + L[42] * L[42] + L[51] * L[51] + L[59] * L[59] + L[66] * L[66];
+    sd += L[76] * L[76] + L[85] * L[85] + L[93] * L[93] + L[100] * L[100] + L[110] * L[110] + L[119] * L[119] + L[127] * L[127] + L[134] * L[134];
+    sd += L[141] * L[141] + L[148] * L[148] + L[155] * L[155] + L[162] * L[162] + L[169] * L[169] + L[175] * L[175] + L[180] * L[180] + L[184] * L[184];
+    sd += L[187] * L[187];
+    const double d = M[112] - sd;
+    if (!(d > kPivotTolerance * M[112])) return not_positive_definite(25, d);
+    L[189] = std::sqrt(d);
+    Dinv[25] = 1.0 / L[189];
+    {
+      double s = L[8] * L[9] + L[17] * L[18] + L[25] * L[26] + L[32] * L[33] + L[42] * L[43] + L[51] * L[52] + L[59] * L[60] + L[66] * L[67];
+      s += L[76] * L[77] + L[85] * L[86] + L[93] * L[94] + L[100] * L[101] + L[110] * L[111] + L[119] * L[120] + L[127] * L[128] + L[134] * L[135];
+      s += L[141] * L[142] + L[148] * L[149] + L[155] * L[156] + L[162] * L[163] + L[169] * L[170] + L[175] * L[176] + L[180] * L[181] + L[184] * L[185];
+      s += L[187] * L[188];
+      L[190] = (M[113] - s) * Dinv[25];
+    }
+  }
+  // column 26: joint 'chassis_floating' (coordinate 6 of 6); 26 descendant(s), 0 ancestor row(s)
+  {
+    double sd = L[9] * L[9] + L[18] * L[18] + L[26] * L[26] + L[33] * L[33] + L[43] * L[43] + L[52] * L[52] + L[60] * L[60] + L[67] * L[67];
+    sd += L[77] * L[77] + L[86] * L[86] + L[94] * L[94] + L[101] * L[101] + L[111] * L[111] + L[120] * L[120] + L[128] * L[128] + L[135] * L[135];
+    sd += L[142] * L[142] + L[149] * L[149] + L[156] * L[156] + L[163] * L[163] + L[170] * L[170] + L[176] * L[176] + L[181] * L[181] + L[185] * L[185];
+    sd += L[188] * L[188] + L[190] * L[190];
+    const double d = M[140] - sd;
+    if (!(d > kPivotTolerance * M[140])) return not_positive_definite(26, d);
+    L[191] = std::sqrt(d);
+    Dinv[26] = 1.0 / L[191];
+  }
+  return 0;
+}
+
 // ---- Step 2: solve L z = Q (forward substitution), Remark 2: ----
 // row j sums over the family F(j) only.
 // Ops: 165 add, 192 mul, 0 div.
@@ -997,18 +1321,16 @@ namespace {
 
 // Steps 1, 2 and 4 on the packed M in g_L and Q in g_z (a tree: no Step 3);
 // qdd in user order.
-int solve_tree(double* qdd) {
-  if (const int status = step1_factor(g_L, g_Dinv)) return status;
+int solve_tree(const double* M, double* qdd) {
+  // Step 1 reads M from the packed g_L, or (solve_augmented) from the dense M.
+  if (const int status = M != nullptr ? step1_factor_dense(M, g_L, g_Dinv) : step1_factor(g_L, g_Dinv))
+    return status;
   step2_forward(g_L, g_Dinv, g_z);
   step4_backward(g_L, g_Dinv, g_z);
-  // x * 0 is 0 for finite x and NaN otherwise: one test covers all entries;
-  // the scan that names the joint runs only on failure.
-  double finite = 0.0;
-  for (std::int32_t j = 0; j < nv; ++j) {
-    qdd[kDofUser[j]] = g_z[j];
-    finite += g_z[j] * 0.0;
-  }
-  if (!(finite == 0.0))
+  scatter_qdd(g_z, qdd);
+  // An integer test of the exponent bits per entry (no floating-point
+  // dependency chain); the scan that names the joint runs only on failure.
+  if (jr::any_non_finite(qdd, nv))
     for (std::int32_t i = 0; i < nv; ++i)
       if (!std::isfinite(qdd[i])) return fail(kNonFinite, "non-finite acceleration", i, qdd[i]);
   g_error[0] = '\0';
@@ -1026,7 +1348,7 @@ int forward_dynamics(const double* q, const double* v, const double* tau, double
   // Q = tau - h (Coriolis and centrifugal terms, gravity, joint damping).
   jr::bias_forces<true, true>(kModel, g_bodies, v, g_z);
   for (std::int32_t j = 0; j < nv; ++j) g_z[j] = tau[kDofUser[j]] - g_z[j];
-  return solve_tree(qdd);
+  return solve_tree(nullptr, qdd);
 }
 
 int solve_augmented(const double* M, const double* Q, const double* Phiq, const double* gamma,
@@ -1034,10 +1356,28 @@ int solve_augmented(const double* M, const double* Q, const double* Phiq, const 
   (void)Phiq;
   (void)gamma;
   (void)lambda;
-  gather_M(M, g_L);
-  for (std::int32_t j = 0; j < nv; ++j) g_z[j] = Q[kDofUser[j]];
-  return solve_tree(qdd);
+  gather_Q(Q, g_z);
+  return solve_tree(M, qdd);
 }
+
+#ifdef JRGEN_EXPOSE_STEPS
+// Opt-in, for per-step timings (tests/report): the inputs gathered as in
+// solve_augmented (Step 1 reads M itself), then the steps up to `last` only (0: none, 1: Step 1,
+// 2: Step 2, 8: Step 4; a tree has no Step 3).
+int solve_augmented_steps(const double* M, const double* Q, const double* Phiq, const double* gamma,
+                          int last) {
+  (void)Phiq;
+  (void)gamma;
+  gather_Q(Q, g_z);
+  if (last < 1) return kSuccess;
+  if (const int status = step1_factor_dense(M, g_L, g_Dinv)) return status;
+  if (last < 2) return kSuccess;
+  step2_forward(g_L, g_Dinv, g_z);
+  if (last < 8) return kSuccess;
+  step4_backward(g_L, g_Dinv, g_z);
+  return kSuccess;
+}
+#endif
 
 void constraints(const double* q, double* phi) {
   (void)q;

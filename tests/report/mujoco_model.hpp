@@ -1,0 +1,59 @@
+// The same tree mechanism loaded into MuJoCo 2.2 (for the report's MuJoCo
+// column): an MJCF written from jrgen's topology (one MuJoCo body per jrgen
+// body, i.e. per moving joint with its fused links; joint frame = body frame;
+// fused inertia with its centre of mass and full inertia tensor; zero
+// armature, zero damping), the configuration mapped to MuJoCo's qpos, and the
+// velocity map v_jrgen = P v_mujoco used to compare the two mass matrices:
+// M_mujoco = P^T M_jrgen P.
+//
+// Joint types: revolute/continuous -> hinge, prismatic -> slide, ball -> ball,
+// floating -> freejoint (root bodies only), planar -> slide e1, slide e2,
+// hinge about the normal (MuJoCo applies a body's joints in order: translate,
+// then rotate, as jrgen's planar joint).  Free joints: MuJoCo's linear
+// velocity is in the world frame, jrgen's in the floating joint's frame
+// (docs/conventions.md); P rotates it.  Angular velocities are in the body
+// frame in both.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+
+#include "topology/topology.hpp"
+
+struct mjModel_;
+struct mjData_;
+
+namespace jrgen::report {
+
+class MujocoModel {
+ public:
+  /// Writes the MJCF to `mjcf_path` and loads it.  ok() is false (and error()
+  /// says why) when MuJoCo rejects the model.
+  MujocoModel(const topology::Tree& tree, const std::string& mjcf_path);
+  ~MujocoModel();
+  MujocoModel(const MujocoModel&) = delete;
+  MujocoModel& operator=(const MujocoModel&) = delete;
+
+  bool ok() const { return m_ != nullptr; }
+  const std::string& error() const { return error_; }
+  int nv() const;
+
+  /// qpos from jrgen's q (user order), then mj_forward: fills qM.
+  void set_configuration(const Eigen::VectorXd& q_jrgen);
+  /// MuJoCo's dense M (mj_fullM of qM), nv x nv.
+  Eigen::MatrixXd dense_mass_matrix() const;
+  /// v_jrgen = P v_mujoco.
+  const Eigen::MatrixXd& P() const { return P_; }
+
+  /// The timed call: mj_factorM (L^T D L of qM into qLD) and mj_solveM.
+  void factor_and_solve(const double* rhs, double* x);
+
+ private:
+  const topology::Tree& tree_;
+  mjModel_* m_ = nullptr;
+  mjData_* d_ = nullptr;
+  std::string error_;
+  Eigen::MatrixXd P_;
+};
+
+}  // namespace jrgen::report
