@@ -3,8 +3,8 @@
 #include <fmt/format.h>
 
 #include <Eigen/Geometry>
-#include <Eigen/QR>
 #include <cmath>
+#include <algorithm>
 #include <cstdint>
 
 #include "analysis/runtime_model.hpp"
@@ -46,6 +46,190 @@ int total_rows(const topology::Tree& tree) {
   return n;
 }
 
+// Every row of every cut (row masks ignored), in the packed Lemma 3 layout of
+// runtime.hpp: the runtime's own tables with all rows kept, so that the
+// Jacobian costs O(rows x dofs per cut), not O(rows x nv).
+struct AllRows {
+  std::vector<jr::CutModel> cuts;
+  jr::ConstraintModel cm{};
+  std::vector<int> rows_per_cut;
+  std::vector<int> first_row;  ///< per cut (ncuts + 1)
+  int rows = 0;
+};
+
+AllRows all_rows(const topology::Tree& tree) {
+  AllRows a;
+  a.cuts = cut_models(tree);
+  int phiq = 0;
+  a.first_row.push_back(0);
+  for (std::size_t c = 0; c < tree.cuts.size(); ++c) {
+    const topology::Cut& cut = tree.cuts[c];
+    jr::CutModel& cm = a.cuts[c];
+    cm.row_mask = (1 << cut.rows) - 1;
+    cm.first_row = a.rows;
+    cm.phiq_start = phiq;
+    cm.num_dofs = static_cast<std::int32_t>(cut.dofs.size());
+    a.rows += cut.rows;
+    phiq += cut.rows * cm.num_dofs;
+    a.rows_per_cut.push_back(cut.rows);
+    a.first_row.push_back(a.rows);
+  }
+  a.cm = {static_cast<std::int32_t>(a.cuts.size()), a.rows, phiq, a.cuts.data()};
+  return a;
+}
+
+// Phi and the packed Phiq of every row at q (common-ancestor entries 0).
+void evaluate_all_rows(RuntimeModel& rt, const AllRows& a, const Eigen::VectorXd& q, Eigen::VectorXd* phi,
+                       std::vector<double>* Phiq) {
+  if (phi) phi->resize(a.rows);
+  if (Phiq) Phiq->assign(a.cm.phiq_nnz, 0.0);
+  jr::constraint_terms(rt.model(), a.cm, rt.workspace(), rt.motion(), q.data(), nullptr, phi ? phi->data() : nullptr,
+                       Phiq ? Phiq->data() : nullptr, nullptr);
+}
+
+// Cholesky factor of the Gram matrix G = Phiq Phiq^T in an elimination order
+// of the rows, dropping dependent rows: in position j, the pivot
+// d_j = |row - its projection on the kept rows before it|^2 (Gram-Schmidt in
+// the metric of G); a row is dependent when d_j <= tol * G_jj.  The pattern is
+// the symbolic factorization of topology::constraint_row_pattern (rows whose
+// cuts share a dof), so memory and time follow the fill of that order, not
+// rows^2.  Forming G squares the condition number: the pivots carry an
+// absolute error of a few (terms x eps x G_jj), about 1e-14 G_jj here, so
+// tol = 1e-12 (a residual of 1e-6 of the row's norm) separates dependent rows
+// (pivots at rounding level) from independent ones with a margin of ~100.
+constexpr double kGramPivotTolerance = 1e-12;
+
+struct GramFactor {
+  std::vector<std::vector<int>> pattern;  ///< per position, rows below (positions)
+  std::vector<std::vector<double>> L;     ///< values aligned with pattern
+  std::vector<double> diag;               ///< sqrt(pivot), 0 when dropped
+  std::vector<char> dropped;
+};
+
+class GramSystem {
+ public:
+  GramSystem(const topology::Tree& tree, const AllRows& a, const std::vector<int>& order)
+      : tree_(tree), a_(a), order_(order), position_(order.size()), cut_of_row_(a.rows) {
+    for (std::size_t j = 0; j < order.size(); ++j) position_[order[j]] = static_cast<int>(j);
+    for (std::size_t c = 0; c < tree.cuts.size(); ++c)
+      for (int r = a.first_row[c]; r < a.first_row[c + 1]; ++r) cut_of_row_[r] = static_cast<int>(c);
+    pattern_ = topology::symbolic_cholesky(topology::constraint_row_pattern(tree, a.rows_per_cut, order), -1, nullptr);
+    row_list_.assign(order.size(), {});
+    for (std::size_t j = 0; j < pattern_.size(); ++j)
+      for (int r : pattern_[j]) row_list_[r].push_back(static_cast<int>(j));
+  }
+
+  // G[r, s] for rows r, s (user numbering): a merge over the dofs their cuts share.
+  double gram(const std::vector<double>& Phiq, int r, int s) const {
+    const int ca = cut_of_row_[r], cb = cut_of_row_[s];
+    const topology::Cut& A = tree_.cuts[ca];
+    const topology::Cut& B = tree_.cuts[cb];
+    const double* pa = Phiq.data() + a_.cuts[ca].phiq_start + (r - a_.first_row[ca]) * a_.cuts[ca].num_dofs;
+    const double* pb = Phiq.data() + a_.cuts[cb].phiq_start + (s - a_.first_row[cb]) * a_.cuts[cb].num_dofs;
+    double sum = 0.0;
+    for (std::size_t i = 0, k = 0; i < A.dofs.size() && k < B.dofs.size();) {
+      if (A.dofs[i] < B.dofs[k]) ++i;
+      else if (B.dofs[k] < A.dofs[i]) ++k;
+      else sum += pa[i++] * pb[k++];
+    }
+    return sum;
+  }
+
+  GramFactor factor(const std::vector<double>& Phiq, double tol) const {
+    const int m = static_cast<int>(order_.size());
+    GramFactor f;
+    f.pattern = pattern_;
+    f.L.resize(m);
+    f.diag.assign(m, 0.0);
+    f.dropped.assign(m, 0);
+    std::vector<double> x(m, 0.0);
+    for (int j = 0; j < m; ++j) {  // left-looking, dense scatter of column j
+      const int rj = order_[j];
+      const double Gjj = gram(Phiq, rj, rj);
+      x[j] = Gjj;
+      for (int i : pattern_[j]) x[i] = gram(Phiq, order_[i], rj);
+      for (int k : row_list_[j]) {
+        if (f.dropped[k]) continue;
+        const std::vector<int>& pk = pattern_[k];
+        const std::size_t at = std::lower_bound(pk.begin(), pk.end(), j) - pk.begin();
+        const double ljk = f.L[k][at];
+        x[j] -= ljk * ljk;
+        for (std::size_t e = at + 1; e < pk.size(); ++e) x[pk[e]] -= f.L[k][e] * ljk;
+      }
+      const double d = x[j];
+      if (!(Gjj > 0.0) || !(d > tol * Gjj)) {
+        f.dropped[j] = 1;
+        f.L[j].assign(pattern_[j].size(), 0.0);
+      } else {
+        f.diag[j] = std::sqrt(d);
+        f.L[j].resize(pattern_[j].size());
+        for (std::size_t e = 0; e < pattern_[j].size(); ++e) f.L[j][e] = x[pattern_[j][e]] / f.diag[j];
+      }
+      x[j] = 0.0;
+      for (int i : pattern_[j]) x[i] = 0.0;
+    }
+    return f;
+  }
+
+  // Minimum-norm Newton step on the rows the factor keeps:
+  // dv = -Phiq_S^T (Phiq_S Phiq_S^T)^-1 phi_S (nv, user order).
+  Eigen::VectorXd newton_step(const GramFactor& f, const std::vector<double>& Phiq, const Eigen::VectorXd& phi) const {
+    const int m = static_cast<int>(order_.size());
+    std::vector<double> y(m);
+    for (int j = 0; j < m; ++j) y[j] = f.dropped[j] ? 0.0 : phi[order_[j]];
+    for (int j = 0; j < m; ++j) {
+      if (f.dropped[j]) continue;
+      y[j] /= f.diag[j];
+      for (std::size_t e = 0; e < pattern_[j].size(); ++e) y[pattern_[j][e]] -= f.L[j][e] * y[j];
+    }
+    for (int j = 0; j < m; ++j)
+      if (f.dropped[j]) y[j] = 0.0;
+    for (int j = m - 1; j >= 0; --j) {
+      if (f.dropped[j]) continue;
+      double s = y[j];
+      for (std::size_t e = 0; e < pattern_[j].size(); ++e) s -= f.L[j][e] * y[pattern_[j][e]];
+      y[j] = s / f.diag[j];
+    }
+    Eigen::VectorXd dv = Eigen::VectorXd::Zero(tree_.nv);
+    for (std::size_t c = 0; c < tree_.cuts.size(); ++c) {
+      const topology::Cut& cut = tree_.cuts[c];
+      for (int r = a_.first_row[c]; r < a_.first_row[c + 1]; ++r) {
+        const double yr = y[position_[r]];
+        if (yr == 0.0) continue;
+        const double* p = Phiq.data() + a_.cuts[c].phiq_start + (r - a_.first_row[c]) * a_.cuts[c].num_dofs;
+        for (int i = 0; i < cut.num_distinct; ++i) dv[tree_.dof_user[cut.dofs[i]]] -= p[i] * yr;
+      }
+    }
+    return dv;
+  }
+
+  int position(int row) const { return position_[row]; }
+
+ private:
+  const topology::Tree& tree_;
+  const AllRows& a_;
+  std::vector<int> order_, position_, cut_of_row_;
+  std::vector<std::vector<int>> pattern_, row_list_;
+};
+
+// Sparse minimum-norm Newton projection onto Phi(q) = 0 (see assemble()).
+double assemble_sparse(const topology::Tree& tree, RuntimeModel& rt, const AllRows& a, const GramSystem& gs,
+                       Eigen::VectorXd& q, double tolerance, int max_iterations) {
+  Eigen::VectorXd phi;
+  std::vector<double> Phiq;
+  double residual = 0.0;
+  for (int it = 0; it <= max_iterations; ++it) {
+    evaluate_all_rows(rt, a, q, &phi, &Phiq);
+    residual = a.rows ? phi.cwiseAbs().maxCoeff() : 0.0;
+    if (!std::isfinite(residual) || residual < tolerance || it == max_iterations) break;
+    // Rows dependent at this iterate are left out of the step (redundant
+    // constraints are consistent once assembled).
+    const Eigen::VectorXd dv = gs.newton_step(gs.factor(Phiq, kGramPivotTolerance), Phiq, phi);
+    integrate(tree, q, dv);
+  }
+  return residual;
+}
+
 }  // namespace
 
 Eigen::VectorXd neutral_configuration(const topology::Tree& tree) {
@@ -83,23 +267,9 @@ void integrate(const topology::Tree& tree, Eigen::VectorXd& q, const Eigen::Vect
 
 double assemble(const topology::Tree& tree, RuntimeModel& rt, Eigen::VectorXd& q, double tolerance,
                 int max_iterations) {
-  const int rows = total_rows(tree);
-  Eigen::VectorXd phi(rows);
-  Eigen::MatrixXd Phiq(rows, tree.nv);
-  double residual = 0.0;
-  for (int it = 0; it <= max_iterations; ++it) {
-    jr::constraints_all_rows(rt.model(), rt.constraints(), rt.workspace(), rt.motion(), q.data(), phi.data(),
-                             Phiq.data());
-    residual = phi.cwiseAbs().maxCoeff();
-    if (!std::isfinite(residual) || residual < tolerance || it == max_iterations) break;
-    // Minimum-norm Newton step; the rank decision ignores rows that are
-    // dependent (redundant constraints are consistent once assembled).
-    Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(Phiq);
-    cod.setThreshold(1e-10);
-    const Eigen::VectorXd dv = -cod.solve(phi);
-    integrate(tree, q, dv);
-  }
-  return residual;
+  const AllRows a = all_rows(tree);
+  const GramSystem gs(tree, a, topology::constraint_row_order(tree, a.rows_per_cut).order);
+  return assemble_sparse(tree, rt, a, gs, q, tolerance, max_iterations);
 }
 
 ConstraintAnalysis analyze_constraints(const ir::Robot& robot, topology::Tree& tree, bool strict) {
@@ -131,17 +301,22 @@ ConstraintAnalysis analyze_constraints(const ir::Robot& robot, topology::Tree& t
 
   RuntimeModel rt(tree, Eigen::Vector3d::Zero());
   const int rows = total_rows(tree);
+  // Every row, packed (Lemma 3), and the elimination order of the Gram
+  // matrix Phiq Phiq^T: assembly and row selection stay sparse.
+  const AllRows all = all_rows(tree);
+  const topology::RowOrder order = topology::constraint_row_order(tree, all.rows_per_cut);
+  const GramSystem gram(tree, all, order.order);
+  auto assemble = [&](Eigen::VectorXd& q) { return assemble_sparse(tree, rt, all, gram, q, 1e-12, 60); };
 
   // Assemble at the zero configuration, then at two seeded perturbations of it.
   std::vector<Eigen::VectorXd> configs;
   {
     Eigen::VectorXd q = neutral_configuration(tree);
-    const double residual = assemble(tree, rt, q);
+    const double residual = assemble(q);
     if (!(residual < 1e-9)) {
       // Name the cut with the largest residual at the last iterate.
-      Eigen::VectorXd phi(rows);
-      jr::constraints_all_rows(rt.model(), rt.constraints(), rt.workspace(), rt.motion(), q.data(), phi.data(),
-                               nullptr);
+      Eigen::VectorXd phi;
+      evaluate_all_rows(rt, all, q, &phi, nullptr);
       int worst = 0, offset = 0;
       double worst_value = -1.0;
       for (int c = 0; c < static_cast<int>(tree.cuts.size()); ++c) {
@@ -166,46 +341,27 @@ ConstraintAnalysis analyze_constraints(const ir::Robot& robot, topology::Tree& t
       Eigen::VectorXd dv(tree.nv);
       for (int i = 0; i < tree.nv; ++i) dv[i] = 0.2 * uniform(state);
       integrate(tree, qp, dv);
-      if (assemble(tree, rt, qp) < 1e-10) configs.push_back(qp);
+      if (assemble(qp) < 1e-10) configs.push_back(qp);
     }
   }
 
   // Greedy row selection: keep a row if, at some assembled configuration, it
-  // is independent of the rows kept before it (Gram-Schmidt, twice).
-  std::vector<Eigen::MatrixXd> jacobians;
+  // is independent of the rows before it in the elimination order that stay
+  // at that configuration: the pivot-dropping Cholesky factorization of the
+  // Gram matrix (GramSystem; the order is the natural cut-row order unless
+  // minimum degree gives less fill, topology::constraint_row_order).
+  std::vector<char> independent(rows, 0);
   for (const Eigen::VectorXd& q : configs) {
-    Eigen::MatrixXd Phiq(rows, tree.nv);
-    jr::constraints_all_rows(rt.model(), rt.constraints(), rt.workspace(), rt.motion(), q.data(), nullptr,
-                             Phiq.data());
-    jacobians.push_back(Phiq);
+    std::vector<double> Phiq;
+    evaluate_all_rows(rt, all, q, nullptr, &Phiq);
+    const GramFactor f = gram.factor(Phiq, kGramPivotTolerance);
+    for (int r = 0; r < rows; ++r)
+      if (!f.dropped[gram.position(r)]) independent[r] = 1;
   }
-  std::vector<std::vector<Eigen::VectorXd>> basis(configs.size());
-  constexpr double kIndependent = 1e-8;  // relative residual of a row after projection
   int offset = 0;
   for (topology::Cut& cut : tree.cuts) {
     std::vector<int> kept, dropped;
-    for (int r = 0; r < cut.rows; ++r) {
-      bool independent = false;
-      std::vector<Eigen::VectorXd> residuals(configs.size());
-      for (std::size_t k = 0; k < configs.size(); ++k) {
-        Eigen::VectorXd a = jacobians[k].row(offset + r).transpose();
-        const double norm = a.norm();
-        for (int pass = 0; pass < 2; ++pass)
-          for (const Eigen::VectorXd& b : basis[k]) a -= b.dot(a) * b;
-        residuals[k] = a;
-        if (norm > 0.0 && a.norm() > kIndependent * norm) independent = true;
-      }
-      if (independent) {
-        kept.push_back(r);
-        for (std::size_t k = 0; k < configs.size(); ++k) {
-          const double n = residuals[k].norm();
-          const double norm = jacobians[k].row(offset + r).norm();
-          if (n > kIndependent * norm && n > 0.0) basis[k].push_back(residuals[k] / n);
-        }
-      } else {
-        dropped.push_back(r);
-      }
-    }
+    for (int r = 0; r < cut.rows; ++r) (independent[offset + r] ? kept : dropped).push_back(r);
     if (!dropped.empty()) {
       const ir::CutJoint& ic = robot.cuts[cut.cut_ir];
       std::string list;

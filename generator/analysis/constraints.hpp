@@ -22,8 +22,11 @@ Eigen::VectorXd neutral_configuration(const topology::Tree& tree);
 void integrate(const topology::Tree& tree, Eigen::VectorXd& q, const Eigen::VectorXd& dv);
 
 /// Newton projection of q onto Phi(q) = 0 (every row of every cut) by
-/// minimum-norm steps in the velocity coordinates.  Returns the final
-/// max-norm residual; `q` holds the last iterate.
+/// minimum-norm steps in the velocity coordinates, dv = -Phiq_S^T (Phiq_S
+/// Phiq_S^T)^-1 phi_S over the rows S independent at the iterate, with a
+/// sparse pivot-dropping Cholesky factorization of the Gram matrix on the
+/// Lemma 3 pattern (time and memory follow its fill, not rows x nv).
+/// Returns the final max-norm residual; `q` holds the last iterate.
 double assemble(const topology::Tree& tree, RuntimeModel& rt, Eigen::VectorXd& q, double tolerance = 1e-12,
                 int max_iterations = 60);
 
@@ -33,8 +36,9 @@ struct ConstraintAnalysis {
 };
 
 /// Fills default distances, assembles the mechanism and keeps, per cut, the
-/// rows that are independent of all rows before them at some assembled
-/// configuration (tree.cuts[c].kept_rows).  Throws jrgen::Error for a loop
+/// rows that are independent of all rows before them (in the elimination
+/// order of topology::constraint_row_order) at some assembled configuration
+/// (tree.cuts[c].kept_rows).  Throws jrgen::Error for a loop
 /// that cannot be closed, a zero default distance, and (with strict) for any
 /// redundant row.
 ConstraintAnalysis analyze_constraints(const ir::Robot& robot, topology::Tree& tree, bool strict);

@@ -609,7 +609,7 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
     v["step3"] = "";
     v["api"] = render_template("api_tree.cpp.tmpl", template_text("api_tree.cpp.tmpl"), api);
   } else {
-    LoopCode loops = emit_loops(t, options.method, unrolled);
+    LoopCode loops = emit_loops(t, options.method, unrolled, options.name_space);
     v["constraint_tables"] = loops.tables;
     v["constraint_workspace"] = loops.workspace;
     v["step3"] = loops.step3;

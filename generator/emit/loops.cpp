@@ -1,6 +1,7 @@
 #include "emit/loops.hpp"
 
 #include <algorithm>
+#include <cstdlib>
 #include <map>
 
 #include "analysis/runtime_model.hpp"
@@ -80,6 +81,198 @@ std::string row_label(const topology::Tree& t, const Row& row) {
   return fmt::format("loop joint '{}' row {}", comment_text(cut.name), row.type_row + 1);
 }
 
+// The tables of the table-driven Step 3 (jr::ConstraintSolveModel), and the
+// number of products the straight-line Step 3 would hold.
+struct Step3Tables {
+  std::vector<int> cut_dof_start, cut_dofs, cut_parent_index, cut_num_distinct, row_cut, row_t_start;
+  std::vector<int> W_col_start, W_row;
+  std::vector<int> W_structural;
+  long long products = 0;
+  OpCount ops31, ops32, ops33, ops34, ops35;  ///< of the loops (as the straight-line code counts)
+};
+
+Step3Tables step3_tables(const topology::Tree& t, const std::vector<Row>& rows, const SchurPattern& sp) {
+  Step3Tables tab;
+  std::vector<int> ancestors_on_list;  // per cut_dofs entry
+  tab.cut_dof_start.push_back(0);
+  for (const topology::Cut& cut : t.cuts) {
+    const int first = static_cast<int>(tab.cut_dofs.size());
+    for (int d : cut.dofs) {
+      tab.cut_dofs.push_back(d);
+      const int parent = t.dof_parent[d];
+      tab.cut_parent_index.push_back(parent < 0 ? -1 : dof_index(cut, parent));
+    }
+    // Ancestors of each dof on the list: the length of its parent chain.
+    for (std::size_t i = 0; i < cut.dofs.size(); ++i) {
+      int n = 0;
+      for (int a = tab.cut_parent_index[first + i]; a >= 0; a = tab.cut_parent_index[first + a]) ++n;
+      ancestors_on_list.push_back(n);
+    }
+    tab.cut_dof_start.push_back(static_cast<int>(tab.cut_dofs.size()));
+    tab.cut_num_distinct.push_back(cut.num_distinct);
+  }
+  for (const Row& row : rows) {
+    tab.row_cut.push_back(row.cut);
+    tab.row_t_start.push_back(row.t_start);
+    const int n = static_cast<int>(t.cuts[row.cut].dofs.size());
+    for (int i = 0; i < n; ++i) {
+      const long long a = ancestors_on_list[tab.cut_dof_start[row.cut] + i];
+      tab.products += a;
+      tab.ops31.add += a;
+      tab.ops31.mul += a;
+    }
+    tab.products += 2LL * n;  // Steps 3.2 and 3.5
+    tab.ops32.add += n;
+    tab.ops32.mul += n;
+    tab.ops35.add += n;
+    tab.ops35.mul += n;
+  }
+  for (int j = 0; j < sp.m; ++j) {
+    tab.W_col_start.push_back(static_cast<int>(tab.W_row.size()));
+    tab.W_row.push_back(j);
+    tab.W_structural.push_back(1);
+    auto common = [&](int r) {
+      const topology::Cut& a = t.cuts[rows[sp.order[r]].cut];
+      const topology::Cut& b = t.cuts[rows[sp.order[j]].cut];
+      long long n = 0;
+      for (std::size_t x = 0, y = 0; x < a.dofs.size() && y < b.dofs.size();) {
+        if (a.dofs[x] < b.dofs[y]) ++x;
+        else if (b.dofs[y] < a.dofs[x]) ++y;
+        else ++n, ++x, ++y;
+      }
+      return n;
+    };
+    const long long nd = common(j);
+    tab.products += nd;
+    tab.ops33.mul += nd;
+    tab.ops33.add += nd - 1;
+    for (std::size_t e = 0; e < sp.pattern[j].size(); ++e) {
+      tab.W_row.push_back(sp.pattern[j][e]);
+      tab.W_structural.push_back(sp.structural[j][e] ? 1 : 0);
+      if (sp.structural[j][e]) {
+        const long long n = common(sp.pattern[j][e]);
+        tab.products += n;
+        tab.ops33.mul += n;
+        tab.ops33.add += n - 1;
+      }
+    }
+    const long long c = static_cast<long long>(sp.pattern[j].size());
+    tab.products += c * (c + 1) / 2 + 2 * c;  // outer product, forward and backward solves
+    tab.ops34.add += c * (c + 1) / 2 + 2 * c;
+    tab.ops34.mul += c * (c + 1) / 2 + 3 * c + 2;
+    tab.ops34.div += 1;
+  }
+  tab.W_col_start.push_back(static_cast<int>(tab.W_row.size()));
+  return tab;
+}
+
+// Steps 3.1-3.5 as calls of the runtime's loops (jrgen/constraint_solve.hpp)
+// over tables, for models whose straight-line Step 3 would be too large.
+void table_driven_step3(const topology::Tree& t, const SchurPattern& sp, const Step3Tables& tab, bool ldlt,
+                        const std::string& name_space, LoopCode& out) {
+  const int m = sp.m;
+  OpCount o31 = tab.ops31, o32 = tab.ops32, o34 = tab.ops34;
+  if (!ldlt) {
+    o31.mul += static_cast<long long>(tab.cut_dofs.size());  // lower bound: one Dinv per entry
+    o34.sqrt += m;
+  } else {
+    o32.mul += o32.mul;  // V = D^-1 U
+  }
+  // The runtime header is included at file scope: leave the solver's
+  // namespaces for it (the template includes jrgen/runtime.hpp only).
+  std::string s = fmt::format(
+      "}}  // namespace\n}}  // namespace {0}\n"
+      "#include <jrgen/constraint_solve.hpp>  // table-driven Step 3\n"
+      "namespace {0} {{\nnamespace {{\n\n",
+      name_space);
+  s += out.tables;
+  s += fmt::format(
+      "\n\n// ---- Step 3 tables (jr::ConstraintSolveModel): Lemma 3 dof lists per cut, ----\n"
+      "// kept rows, and T^T T's factor pattern in the elimination order ({}; {} entries).\n",
+      sp.minimum_degree ? "minimum degree on the graph of cuts" : "natural cut-row order", tab.W_row.size());
+  auto table = [&](const char* type, const char* name, const std::vector<int>& values) {
+    s += fmt::format("constexpr {} {}[{}] = {{ {} }};\n", type, name, std::max<std::size_t>(values.size(), 1),
+                     values.empty() ? "0" : join_ints(values));
+  };
+  table("std::int32_t", "kCutDofStart", tab.cut_dof_start);
+  table("std::int32_t", "kCutDofs", tab.cut_dofs);
+  table("std::int32_t", "kCutParentIndex", tab.cut_parent_index);
+  table("std::int32_t", "kCutNumDistinct", tab.cut_num_distinct);
+  table("std::int32_t", "kRowCut", tab.row_cut);
+  table("std::int32_t", "kRowTStart", tab.row_t_start);
+  table("std::int32_t", "kOrder", sp.order);
+  table("std::int32_t", "kWColStart", tab.W_col_start);
+  table("std::int32_t", "kWRow", tab.W_row);
+  table("std::uint8_t", "kWStructural", tab.W_structural);
+  s += fmt::format(
+      "constexpr jr::ConstraintSolveModel kConstraintSolve = {{{}, {}, kCutDofStart, kCutDofs, kCutParentIndex,\n"
+      "    kCutNumDistinct, kRowCut, kRowTStart, kOrder, kWColStart, kWRow, kWStructural}};",
+      t.cuts.size(), m);
+  out.tables = s;
+
+  const char* flag = ldlt ? "true" : "false";
+  std::string f;
+  f += "// Constraint rows whose T^T T pivot fails: the loop joint is named.\n"
+       "int constraints_singular(std::int32_t row, double pivot) {\n"
+       "  std::snprintf(g_error, sizeof g_error,\n"
+       "                \"constraint rows singular (T^T T not positive definite) at %s; pivot %.17g\",\n"
+       "                kRowLabel[row], pivot);\n"
+       "  return kConstraintsSingular;\n"
+       "}\n\n"
+       "int fail_row(int status, const char* what, std::int32_t row, double value) {\n"
+       "  std::snprintf(g_error, sizeof g_error, \"%s at %s, value %.17g\", what, kRowLabel[row], value);\n"
+       "  return status;\n"
+       "}\n\n";
+  f += fmt::format(
+      "// Step 3 is table-driven: unrolled, it would hold {} products (more than {}),\n"
+      "// too large to compile quickly; the runtime's loops do the same arithmetic.\n\n",
+      tab.products, step3_unroll_limit());
+  const std::string U = ldlt ? "U" : "T";
+  f += fmt::format(
+      "// ---- Step 3.1: solve L {0} = Phiq^T in place (T holds the packed Phiq on entry). ----\n"
+      "// Lemma 3: only the dofs on the paths of each cut's bodies.  Ops: {1} add, {2} mul, {3} div.\n"
+      "void step31_solve_T(const double* L, {4}double* T) {{\n"
+      "  jr::constraint_solve_T(kModel, kConstraintSolve, L, {5}, {6}, T);\n}}\n\n",
+      U, o31.add, o31.mul, o31.div, ldlt ? "" : "const double* Dinv, ", ldlt ? "nullptr" : "Dinv", flag);
+  f += fmt::format(
+      "// ---- Step 3.2: z_m = {0} ----\n// Ops: {1} add, {2} mul, {3} div.\n"
+      "void step32_rhs(const double* T, {4}const double* z, const double* gamma, {5}double* zm) {{\n"
+      "  jr::constraint_rhs(kConstraintSolve, T, {6}, z, gamma, {7}, {8}, zm);\n}}\n\n",
+      ldlt ? "U^T D^-1 y - gamma, with V = D^-1 U kept for Step 3.3." : "T^T z_n - gamma.", o32.add, o32.mul,
+      o32.div, ldlt ? "const double* Dinv, " : "", ldlt ? "double* V, " : "", ldlt ? "Dinv" : "nullptr", flag,
+      ldlt ? "V" : "nullptr");
+  f += fmt::format(
+      "// ---- Step 3.3: W = {0} (m = {1}), packed by columns in the elimination order; ----\n"
+      "// only entries whose rows' cuts share a dof; fill of Step 3.4 set to 0.\n"
+      "// Ops: {2} add, {3} mul, {4} div.\n"
+      "void step33_TtT(const double* T, {5}double* W) {{\n"
+      "  jr::constraint_schur(kConstraintSolve, {6}, T, W);\n}}\n\n",
+      ldlt ? "U^T D^-1 U = V^T U" : "T^T T", m, tab.ops33.add, tab.ops33.mul, tab.ops33.div,
+      ldlt ? "const double* V, " : "", ldlt ? "V" : "T");
+  f += fmt::format(
+      "// ---- Step 3.4: factor W = {0} in place (fill included) and solve W lambda = z_m. ----\n"
+      "// Ops (factor and solve): {1} add, {2} mul, {3} div, {4} sqrt.\n"
+      "int step34_factor(double* W, double* Winv) {{\n"
+      "  double pivot = 0.0;\n"
+      "  const std::int32_t row = jr::constraint_factor(kConstraintSolve, W, Winv, {5}, kPivotTolerance, &pivot);\n"
+      "  return row < 0 ? 0 : constraints_singular(row, pivot);\n}}\n\n"
+      "void step34_solve(const double* W, const double* Winv, double* zm) {{\n"
+      "  jr::constraint_solve_lambda(kConstraintSolve, W, Winv, {5}, zm);\n}}\n\n",
+      ldlt ? "L_W D_W L_W^T" : "L_W L_W^T", o34.add, o34.mul, o34.div, o34.sqrt, flag);
+  f += fmt::format(
+      "// ---- Step 3.5: y_n = {0} lambda, subtracted from z_n in place. ----\n"
+      "// Ops: {1} add, {2} mul, {3} div.\n"
+      "void step35_update(const double* T, const double* zm, double* z) {{\n"
+      "  jr::constraint_update(kConstraintSolve, T, zm, z);\n}}",
+      U, tab.ops35.add, tab.ops35.mul, tab.ops35.div);
+  out.step3 = f;
+  out.call_args["step31_args"] = ldlt ? "g_L, g_T" : "g_L, g_Dinv, g_T";
+  out.call_args["step32_args"] = ldlt ? "g_T, g_Dinv, g_z, g_gamma, g_V, g_zm" : "g_T, g_z, g_gamma, g_zm";
+  out.call_args["step33_args"] = ldlt ? "g_T, g_V, g_W" : "g_T, g_W";
+  out.call_args["step35_args"] = "g_T, g_zm, g_z";
+  out.ops = {{"3.1", o31}, {"3.2", o32}, {"3.3", tab.ops33}, {"3.4", o34}, {"3.5", tab.ops35}};
+}
+
 }  // namespace
 
 int SchurPattern::position(int row, int col) const {
@@ -89,50 +282,17 @@ int SchurPattern::position(int row, int col) const {
 }
 
 SchurPattern schur_pattern(const topology::Tree& t) {
-  const std::vector<Row> rows = kept_rows(t);
   SchurPattern sp;
-  sp.m = static_cast<int>(rows.size());
-  // Rows of each cut, then cuts sharing each dof: T^T T (r, s) is non-zero
-  // exactly when the cuts of r and s share a dof.
-  std::vector<std::vector<int>> rows_of_cut(t.cuts.size());
-  for (int g = 0; g < sp.m; ++g) rows_of_cut[rows[g].cut].push_back(g);
-  std::vector<std::vector<int>> cuts_of_dof(t.nv);
-  for (int c = 0; c < static_cast<int>(t.cuts.size()); ++c)
-    if (!rows_of_cut[c].empty())
-      for (int d : t.cuts[c].dofs) cuts_of_dof[d].push_back(c);
-  std::vector<std::vector<int>> lower(sp.m);  // structural rows > col
-  {
-    std::vector<std::vector<int>> coupled(t.cuts.size());
-    for (const std::vector<int>& cs : cuts_of_dof)
-      for (int a : cs)
-        for (int b : cs) coupled[a].push_back(b);
-    for (int c = 0; c < static_cast<int>(t.cuts.size()); ++c) {
-      std::sort(coupled[c].begin(), coupled[c].end());
-      coupled[c].erase(std::unique(coupled[c].begin(), coupled[c].end()), coupled[c].end());
-      for (int col : rows_of_cut[c])
-        for (int other : coupled[c])
-          for (int row : rows_of_cut[other])
-            if (row > col) lower[col].push_back(row);
-    }
-    for (std::vector<int>& l : lower) std::sort(l.begin(), l.end());
-  }
-  // Symbolic Cholesky: the pattern of column j is its own rows plus those of
-  // every column whose first off-diagonal row (elimination-tree parent) is j.
-  sp.pattern.assign(sp.m, {});
-  std::vector<std::vector<int>> children(sp.m);
-  for (int j = 0; j < sp.m; ++j) {
-    std::vector<int> p = lower[j];
-    for (int child : children[j]) {
-      std::vector<int> merged;
-      for (int r : sp.pattern[child])
-        if (r > j) merged.push_back(r);
-      std::vector<int> u;
-      std::set_union(p.begin(), p.end(), merged.begin(), merged.end(), std::back_inserter(u));
-      p.swap(u);
-    }
-    sp.pattern[j] = p;
-    if (!p.empty()) children[p.front()].push_back(j);
-  }
+  std::vector<int> rows_per_cut;
+  for (const topology::Cut& cut : t.cuts) rows_per_cut.push_back(static_cast<int>(cut.kept_rows.size()));
+  const topology::RowOrder order = topology::constraint_row_order(t, rows_per_cut);
+  sp.order = order.order;
+  sp.minimum_degree = order.minimum_degree;
+  sp.m = static_cast<int>(sp.order.size());
+  // Structural entries below the diagonal (rows whose cuts share a dof), in
+  // elimination positions, then the fill of the symbolic factorization.
+  const std::vector<std::vector<int>> lower = topology::constraint_row_pattern(t, rows_per_cut, sp.order);
+  sp.pattern = topology::symbolic_cholesky(lower, -1, nullptr);
   sp.row_list.assign(sp.m, {});
   sp.structural.assign(sp.m, {});
   sp.col_start.assign(sp.m + 1, 0);
@@ -146,7 +306,16 @@ SchurPattern schur_pattern(const topology::Tree& t) {
   return sp;
 }
 
-LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gathers) {
+long long step3_unroll_limit() {
+  if (const char* text = std::getenv("JRGEN_STEP3_UNROLL_LIMIT")) {
+    char* end = nullptr;
+    const long long v = std::strtoll(text, &end, 10);
+    if (*text && !*end && v >= 0) return v;
+  }
+  return kMaxUnrolledProducts;
+}
+
+LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gathers, const std::string& name_space) {
   LoopCode out;
   const bool ldlt = method == Method::kLDLT;
   const std::vector<Row> rows = kept_rows(t);
@@ -155,6 +324,11 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
   const std::vector<jr::CutModel> models = analysis::cut_models(t);
   const int phiq_nnz = rows.empty() ? 0 : rows.back().t_start + static_cast<int>(t.cuts[rows.back().cut].dofs.size());
   const SchurPattern sp = schur_pattern(t);
+  const Step3Tables tab = step3_tables(t, rows, sp);
+  // Straight-line Step 3 while it stays small enough to compile quickly;
+  // beyond that, the runtime's loops over the same tables (same arithmetic).
+  const bool unrolled = tab.products <= step3_unroll_limit();
+  unrolled_gathers = unrolled_gathers && unrolled;
 
   // ---- tables ----
   {
@@ -218,6 +392,11 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
       nb, phiq_nnz, ldlt ? fmt::format("thread_local double g_V[{}];     // D^-1 U (Step 3.2)\n", phiq_nnz) : "",
       m, sp.nnz(), m, m);
 
+  if (!unrolled) {
+    table_driven_step3(t, sp, tab, ldlt, name_space, out);
+    return out;
+  }
+
   // ---- Step 3.1: L T = Phiq^T, only the rows of Lemma 3 ----
   Kernel k31;
   for (int g = 0; g < m; ++g) {
@@ -270,17 +449,19 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
 
   // ---- Step 3.3: T^T T, only entries whose rows share a dof ----
   Kernel k33;
+  // Positions of the elimination order (Step 3.4) -> kept rows (user order).
+  auto row_at = [&](int position) -> const Row& { return rows[sp.order[position]]; };
   for (int j = 0; j < m; ++j) {
     Kernel::Unit& u = k33.unit();
-    u.lines.push_back(fmt::format("// column {}: {}", j, row_label(t, rows[j])));
-    const topology::Cut& cj = t.cuts[rows[j].cut];
+    u.lines.push_back(fmt::format("// column {}: {}", j, row_label(t, row_at(j))));
+    const topology::Cut& cj = t.cuts[row_at(j).cut];
     auto entry = [&](int r) {
-      const topology::Cut& cr = t.cuts[rows[r].cut];
+      const topology::Cut& cr = t.cuts[row_at(r).cut];
       std::vector<Term> terms;
       std::vector<int> common;
       std::set_intersection(cj.dofs.begin(), cj.dofs.end(), cr.dofs.begin(), cr.dofs.end(), std::back_inserter(common));
       for (int i : common) {
-        const std::string a = T(rows[r], cr, i), b = T(rows[j], cj, i);
+        const std::string a = T(row_at(r), cr, i), b = T(row_at(j), cj, i);
         terms.push_back({ldlt ? "V" + a.substr(1) : a, b});
       }
       return terms;
@@ -302,7 +483,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
   Kernel k34f, k34s;
   for (int j = 0; j < m; ++j) {
     Kernel::Unit& u = k34f.unit();
-    u.lines.push_back(fmt::format("// column {}: {}", j, row_label(t, rows[j])));
+    u.lines.push_back(fmt::format("// column {}: {}", j, row_label(t, row_at(j))));
     u.lines.push_back("{");
     const std::string in = "  ";
     const std::string diag = fmt::format("W[{}]", sp.position(j, j));
@@ -317,7 +498,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
       std::vector<Term> sq;
       for (int i : left) sq.push_back({Wat(j, i), Wat(j, i)});
       k34f.update(u, in, "d", diag, sq, "", "const double ", "sd");
-      u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return constraints_singular({}, d);", diag, j));
+      u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return constraints_singular({}, d);", diag, sp.order[j]));
       u.lines.push_back(in + diag + " = std::sqrt(d);");
       u.lines.push_back(in + fmt::format("Winv[{}] = 1.0 / {};", j, diag));
       u.statements += 3;
@@ -340,7 +521,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
         dterms.push_back({name, Wat(j, i)});
       }
       k34f.update(u, in, "d", diag, dterms, "", "const double ", "sd");
-      u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return constraints_singular({}, d);", diag, j));
+      u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return constraints_singular({}, d);", diag, sp.order[j]));
       u.lines.push_back(in + diag + " = d;");
       u.lines.push_back(in + fmt::format("Winv[{}] = 1.0 / d;", j));
       u.statements += 3;
@@ -355,22 +536,23 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
   }
   for (int j = 0; j < m; ++j) {  // forward
     std::vector<Term> terms;
-    for (int i : sp.row_list[j]) terms.push_back({fmt::format("W[{}]", sp.position(j, i)), fmt::format("zm[{}]", i)});
+    for (int i : sp.row_list[j])
+      terms.push_back({fmt::format("W[{}]", sp.position(j, i)), fmt::format("zm[{}]", sp.order[i])});
     if (ldlt && terms.empty()) continue;
     Kernel::Unit& u = k34s.unit();
     u.lines.push_back(fmt::format("// forward, row {}", j));
-    const std::string z = fmt::format("zm[{}]", j);
+    const std::string z = fmt::format("zm[{}]", sp.order[j]);
     k34s.update(u, "", z, z, terms, ldlt ? "" : fmt::format("Winv[{}]", j));
   }
   for (int j = m - 1; j >= 0; --j) {  // backward
     std::vector<Term> terms;
-    // Farthest rows first: zm[j + 1], solved just before, enters last, so
+    // Farthest rows first: the position solved just before enters last, so
     // the serial chain of the back substitution is one product per row.
     for (auto r = sp.pattern[j].rbegin(); r != sp.pattern[j].rend(); ++r)
-      terms.push_back({fmt::format("W[{}]", sp.position(*r, j)), fmt::format("zm[{}]", *r)});
+      terms.push_back({fmt::format("W[{}]", sp.position(*r, j)), fmt::format("zm[{}]", sp.order[*r])});
     Kernel::Unit& u = k34s.unit();
     u.lines.push_back(fmt::format("// backward, row {}", j));
-    const std::string z = fmt::format("zm[{}]", j);
+    const std::string z = fmt::format("zm[{}]", sp.order[j]);
     if (ldlt) {
       k34s.ops.mul += 1;
       k34s.update(u, "", z, z + fmt::format(" * Winv[{}]", j), terms, "");

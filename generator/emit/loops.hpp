@@ -11,11 +11,15 @@
 
 namespace jrgen::emit {
 
-/// The symbolic structure of T^T T (m x m, kept rows in cut order) and of its
-/// Cholesky factor: column j holds the diagonal, then the rows of pattern[j]
-/// (ascending, fill included).
+/// The symbolic structure of T^T T (m x m) and of its Cholesky factor in the
+/// elimination order of topology::constraint_row_order (Step 3.4): rows and
+/// columns are elimination positions; position j is kept row order[j] (user
+/// row order, cut by cut).  Column j holds the diagonal, then the rows of
+/// pattern[j] (ascending positions, fill included).
 struct SchurPattern {
   int m = 0;
+  std::vector<int> order;                  ///< elimination position -> kept row (user order)
+  bool minimum_degree = false;             ///< order from minimum degree (else the natural order)
   std::vector<std::vector<int>> pattern;   ///< rows below the diagonal, per column
   std::vector<std::vector<int>> row_list;  ///< columns left of the diagonal, per row
   std::vector<int> col_start;              ///< packed column starts (m + 1)
@@ -25,7 +29,8 @@ struct SchurPattern {
 };
 
 /// Entry (r, s) of T^T T is structurally non-zero when the cuts of rows r and
-/// s share a dof (Lemma 3); the factor's fill follows by symbolic elimination.
+/// s share a dof (Lemma 3); the factor's fill follows by symbolic elimination
+/// in the fill-reducing order.
 SchurPattern schur_pattern(const topology::Tree& tree);
 
 struct LoopCode {
@@ -37,6 +42,17 @@ struct LoopCode {
   std::vector<StepOps> ops;  ///< "3.1" .. "3.5"
 };
 
-LoopCode emit_loops(const topology::Tree& tree, Method method, bool unrolled_gathers);
+/// Step 3 as straight-line code, or, when that would hold more than
+/// step3_unroll_limit() products, as calls of the runtime's table-driven
+/// loops (jrgen/constraint_solve.hpp) over emitted tables.  `name_space` is
+/// the solver's namespace (the table-driven code includes the runtime header
+/// at file scope).
+LoopCode emit_loops(const topology::Tree& tree, Method method, bool unrolled_gathers,
+                    const std::string& name_space);
+
+/// kMaxUnrolledProducts, or (internal, for tests only: not part of the CLI)
+/// the value of the environment variable JRGEN_STEP3_UNROLL_LIMIT when it is a
+/// non-negative integer; 0 forces the table-driven Step 3 on every model.
+long long step3_unroll_limit();
 
 }  // namespace jrgen::emit

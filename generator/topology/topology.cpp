@@ -1,6 +1,7 @@
 #include "topology/topology.hpp"
 
 #include <algorithm>
+#include <iterator>
 #include <queue>
 #include <stdexcept>
 
@@ -339,6 +340,135 @@ void check_lemma2(const Tree& tree) {
     if (tree.M_col_start[d + 1] - tree.M_col_start[d] != tree.dof_depth[d] + 1)
       throw std::logic_error("packed layout inconsistent at dof " + std::to_string(d));
   }
+}
+
+std::vector<std::vector<int>> coupled_cuts(const Tree& tree, const std::vector<int>& rows_per_cut) {
+  const int ncuts = static_cast<int>(tree.cuts.size());
+  std::vector<std::vector<int>> cuts_of_dof(tree.nv);
+  for (int c = 0; c < ncuts; ++c)
+    if (rows_per_cut[c] > 0)
+      for (int d : tree.cuts[c].dofs) cuts_of_dof[d].push_back(c);
+  std::vector<std::vector<int>> out(ncuts);
+  for (const std::vector<int>& cs : cuts_of_dof)
+    for (int a : cs) out[a].insert(out[a].end(), cs.begin(), cs.end());
+  for (std::vector<int>& list : out) {
+    std::sort(list.begin(), list.end());
+    list.erase(std::unique(list.begin(), list.end()), list.end());
+  }
+  return out;
+}
+
+std::vector<std::vector<int>> symbolic_cholesky(const std::vector<std::vector<int>>& lower, long long op_limit,
+                                                long long* ops) {
+  const int m = static_cast<int>(lower.size());
+  std::vector<std::vector<int>> pattern(m);
+  std::vector<std::vector<int>> children(m);
+  long long cost = 0;
+  std::vector<int> merged, u;
+  for (int j = 0; j < m; ++j) {
+    std::vector<int> p = lower[j];
+    for (int child : children[j]) {
+      merged.clear();
+      for (int r : pattern[child])
+        if (r > j) merged.push_back(r);
+      u.clear();
+      std::set_union(p.begin(), p.end(), merged.begin(), merged.end(), std::back_inserter(u));
+      p.swap(u);
+    }
+    const long long c = static_cast<long long>(p.size());
+    cost += c * (c + 3) / 2;
+    if (op_limit >= 0 && cost > op_limit) {
+      if (ops) *ops = cost;
+      return {};
+    }
+    if (!p.empty()) children[p.front()].push_back(j);
+    pattern[j] = std::move(p);
+  }
+  if (ops) *ops = cost;
+  return pattern;
+}
+
+std::vector<std::vector<int>> constraint_row_pattern(const Tree& tree, const std::vector<int>& rows_per_cut,
+                                                     const std::vector<int>& order) {
+  const int ncuts = static_cast<int>(tree.cuts.size());
+  std::vector<int> first(ncuts + 1, 0);
+  for (int c = 0; c < ncuts; ++c) first[c + 1] = first[c] + rows_per_cut[c];
+  const int m = first[ncuts];
+  std::vector<int> position(m), cut_of_row(m);
+  for (int j = 0; j < m; ++j) position[order[j]] = j;
+  for (int c = 0; c < ncuts; ++c)
+    for (int r = first[c]; r < first[c + 1]; ++r) cut_of_row[r] = c;
+  const std::vector<std::vector<int>> coupled = coupled_cuts(tree, rows_per_cut);
+  std::vector<std::vector<int>> lower(m);
+  for (int j = 0; j < m; ++j) {
+    for (int other : coupled[cut_of_row[order[j]]])
+      for (int r = first[other]; r < first[other + 1]; ++r)
+        if (position[r] > j) lower[j].push_back(position[r]);
+    std::sort(lower[j].begin(), lower[j].end());
+  }
+  return lower;
+}
+
+RowOrder constraint_row_order(const Tree& tree, const std::vector<int>& rows_per_cut) {
+  const int ncuts = static_cast<int>(tree.cuts.size());
+  std::vector<int> first(ncuts + 1, 0);
+  for (int c = 0; c < ncuts; ++c) first[c + 1] = first[c] + rows_per_cut[c];
+  const int m = first[ncuts];
+
+  // Minimum degree on the elimination graph of cuts: eliminating a cut joins
+  // its neighbours into a clique (the fill of Step 3.4), and it leaves the graph.
+  std::vector<std::vector<int>> adj = coupled_cuts(tree, rows_per_cut);
+  for (int c = 0; c < ncuts; ++c) adj[c].erase(std::remove(adj[c].begin(), adj[c].end(), c), adj[c].end());
+  std::vector<long long> degree(ncuts, 0);
+  auto update_degree = [&](int c) {
+    long long d = 0;
+    for (int n : adj[c]) d += rows_per_cut[n];
+    degree[c] = d;
+  };
+  std::vector<char> done(ncuts, 0);
+  for (int c = 0; c < ncuts; ++c) {
+    update_degree(c);
+    if (rows_per_cut[c] == 0) done[c] = 1;
+  }
+  std::vector<int> md;
+  md.reserve(m);
+  std::vector<int> u;
+  for (;;) {
+    int best = -1;
+    for (int c = 0; c < ncuts; ++c)
+      if (!done[c] && (best < 0 || degree[c] < degree[best])) best = c;
+    if (best < 0) break;
+    done[best] = 1;
+    for (int r = first[best]; r < first[best + 1]; ++r) md.push_back(r);
+    const std::vector<int> nbrs = std::move(adj[best]);
+    adj[best].clear();
+    for (int n : nbrs) {
+      u.clear();
+      std::set_union(adj[n].begin(), adj[n].end(), nbrs.begin(), nbrs.end(), std::back_inserter(u));
+      u.erase(std::remove_if(u.begin(), u.end(), [&](int x) { return x == n || x == best; }), u.end());
+      adj[n].swap(u);
+      update_degree(n);
+    }
+  }
+
+  RowOrder out;
+  long long md_ops = 0;
+  symbolic_cholesky(constraint_row_pattern(tree, rows_per_cut, md), -1, &md_ops);
+  std::vector<int> natural(m);
+  for (int r = 0; r < m; ++r) natural[r] = r;
+  long long natural_ops = 0;
+  const bool natural_done =
+      !symbolic_cholesky(constraint_row_pattern(tree, rows_per_cut, natural), md_ops, &natural_ops).empty() || m == 0;
+  if (natural_done && natural_ops <= md_ops) {
+    out.order = natural;
+    out.ops = natural_ops;
+  } else {
+    out.order = md;
+    out.minimum_degree = true;
+    out.ops = md_ops;
+  }
+  out.natural_ops = natural_done ? natural_ops : -1;
+  return out;
 }
 
 }  // namespace jrgen::topology

@@ -136,6 +136,51 @@ Tree build_tree(const ir::Robot& robot);
 /// packed layout complete.  Throws std::logic_error when violated.
 void check_lemma2(const Tree& tree);
 
+// ---- Elimination order of the constraint rows (Step 3.4) ------------------------
+//
+// Remark 4 treats T^T T as dense.  Its entry (r, s) is structurally non-zero
+// only when the cuts of rows r and s share a dof of their Lemma 3 lists, so
+// for mechanisms made of weakly coupled loops (vehicle trains: block
+// tridiagonal) the order in which its rows are eliminated decides the fill
+// of its Cholesky factor.
+
+/// Cuts whose Lemma 3 dof lists intersect, per cut (ascending, the cut
+/// itself included), among cuts with rows_per_cut[c] > 0 (others: empty).
+std::vector<std::vector<int>> coupled_cuts(const Tree& tree, const std::vector<int>& rows_per_cut);
+
+/// Symbolic Cholesky factorization of a symmetric pattern given in
+/// elimination positions: lower[j] = structurally non-zero rows > j of column
+/// j (ascending).  Returns the factor's rows > j per column, fill included
+/// (column j gets the rows of every column whose first off-diagonal row, its
+/// elimination-tree parent, is j).  When op_limit >= 0 and the factor's cost
+/// sum_j |column j| (|column j| + 3) / 2 exceeds it, gives up and returns an
+/// empty vector.  *ops receives that cost.
+std::vector<std::vector<int>> symbolic_cholesky(const std::vector<std::vector<int>>& lower, long long op_limit,
+                                                long long* ops);
+
+/// Pattern of T^T T (or of Phiq Phiq^T) in elimination positions: for an
+/// elimination order `order` (position -> row; rows numbered cut by cut,
+/// rows_per_cut[c] rows for cut c), the structurally non-zero rows > j of
+/// column j.
+std::vector<std::vector<int>> constraint_row_pattern(const Tree& tree, const std::vector<int>& rows_per_cut,
+                                                     const std::vector<int>& order);
+
+struct RowOrder {
+  std::vector<int> order;  ///< elimination position -> row (rows numbered cut by cut)
+  bool minimum_degree = false;  ///< false: the natural (cut, row) order
+  long long ops = 0;            ///< cost of the factor in that order (symbolic_cholesky)
+  long long natural_ops = -1;   ///< cost in the natural order (-1: not finished, above ops)
+};
+
+/// A fill-reducing elimination order of the constraint rows: minimum degree
+/// on the graph of cuts (rows of one cut are indistinguishable: a clique
+/// sharing every neighbour, so they are eliminated together, in their own
+/// order).  The degree of a cut is the number of rows of the cuts adjacent
+/// to it in the elimination graph; ties go to the lowest cut index, so the
+/// order is deterministic.  The natural (cut, row) order is kept when its
+/// factor costs no more (symbolic_cholesky), so a model never gets worse.
+RowOrder constraint_row_order(const Tree& tree, const std::vector<int>& rows_per_cut);
+
 /// Composition helpers on ir::Pose.
 ir::Pose compose(const ir::Pose& X_AB, const ir::Pose& X_BC);
 

@@ -157,6 +157,13 @@ std::vector<ModelCase> loop_models() {
     out.push_back({"loops_random_" + std::to_string(o.num_bodies) + "_seed" + std::to_string(seed), urdf,
                    random_cuts_xml(urdf, co)});
   }
+  // Vehicle trains (random_model.hpp, vehicle_train): 2 and 3 HMMWVs hitched
+  // by spherical cut joints; T^T T is block tridiagonal.
+  for (int k : {2, 3}) {
+    const ModelWithCuts train = vehicle_train(k, read_text((models / "hmmwv14.urdf").string()),
+                                              read_text((models / "hmmwv14.cuts.xml").string()));
+    out.push_back({"loops_train_" + std::to_string(k), train.urdf, train.cuts});
+  }
   return out;
 }
 

@@ -27,8 +27,8 @@ std::vector<ModelCase> random_trees();
 std::vector<ModelCase> all_tree_models();
 
 /// Closed-loop models: models/ with their cuts (hmmwv14, fourbar,
-/// slider_crank, stewart), and seeded random trees with random cut joints of
-/// every type.
+/// slider_crank, stewart), seeded random trees with random cut joints of
+/// every type, and trains of 2 and 3 HMMWVs (loops_train_2, loops_train_3).
 std::vector<ModelCase> loop_models();
 
 /// Trees and loops.

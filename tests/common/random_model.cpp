@@ -286,3 +286,135 @@ std::string add_floating_base(const std::string& urdf_text) {
 }
 
 }  // namespace jrgen::testing
+
+namespace jrgen::testing {
+
+namespace {
+
+std::string fixed_number(double x) {
+  std::ostringstream s;
+  s.imbue(std::locale::classic());
+  s.precision(17);
+  s << x;
+  return s.str();
+}
+
+TiXmlDocument parse_or_throw(const std::string& text, const char* what) {
+  TiXmlDocument doc;
+  doc.Parse(text.c_str(), nullptr, TIXML_ENCODING_UTF8);
+  if (doc.Error())
+    throw std::invalid_argument(std::string("vehicle_train: ") + what + ": XML error: " + doc.ErrorDesc() +
+                                " (line " + std::to_string(doc.ErrorRow()) + ")");
+  return doc;
+}
+
+// Prefixes the `attribute` of every `child` element of e (e.g. <parent link>).
+void prefix_child(TiXmlElement* e, const char* child, const char* attribute, const std::string& prefix,
+                  const std::string& keep) {
+  for (TiXmlElement* c = e->FirstChildElement(child); c; c = c->NextSiblingElement(child))
+    if (const char* v = c->Attribute(attribute))
+      if (v != keep) c->SetAttribute(attribute, prefix + v);
+}
+
+}  // namespace
+
+ModelWithCuts vehicle_train(int vehicles, const std::string& vehicle_urdf, const std::string& vehicle_cuts,
+                            double spacing) {
+  if (vehicles < 1) throw std::invalid_argument("vehicle_train: needs at least one vehicle");
+  TiXmlDocument urdf = parse_or_throw(vehicle_urdf, "vehicle URDF");
+  TiXmlDocument cuts = parse_or_throw(vehicle_cuts, "vehicle cuts");
+  const TiXmlElement* robot = urdf.RootElement();
+  if (!robot || robot->ValueStr() != "robot") throw std::invalid_argument("vehicle_train: no <robot> root element");
+  const TiXmlElement* loops = cuts.RootElement();
+  if (!loops || loops->ValueStr() != "loop_joints")
+    throw std::invalid_argument("vehicle_train: the cuts file has no <loop_joints> root element");
+
+  // The world link stays shared; find the floating joint hanging from it.
+  const std::string world = "world";
+  std::string root_link;
+  for (const TiXmlElement* j = robot->FirstChildElement("joint"); j; j = j->NextSiblingElement("joint")) {
+    const TiXmlElement* p = j->FirstChildElement("parent");
+    if (p && p->Attribute("link") && world == p->Attribute("link")) {
+      const char* type = j->Attribute("type");
+      const TiXmlElement* c = j->FirstChildElement("child");
+      if (!type || std::string(type) != "floating" || !c || !c->Attribute("link") || !root_link.empty())
+        throw std::invalid_argument("vehicle_train: the world link must carry exactly one floating joint");
+      root_link = c->Attribute("link");
+    }
+  }
+  if (root_link.empty()) throw std::invalid_argument("vehicle_train: no floating joint from the world link");
+
+  TiXmlDocument out_urdf;
+  out_urdf.InsertEndChild(TiXmlDeclaration("1.0", "", ""));
+  TiXmlElement out_robot("robot");
+  out_robot.SetAttribute("name", "train_" + std::to_string(vehicles));
+  TiXmlElement world_link("link");
+  world_link.SetAttribute("name", world);
+  out_robot.InsertEndChild(world_link);
+  TiXmlElement out_loops("loop_joints");
+
+  for (int i = 0; i < vehicles; ++i) {
+    const std::string prefix = "v" + std::to_string(i) + "_";
+    for (const TiXmlElement* e = robot->FirstChildElement(); e; e = e->NextSiblingElement()) {
+      if (e->ValueStr() == "link" && e->Attribute("name") && world == e->Attribute("name")) continue;
+      TiXmlElement copy(*e);
+      if (const char* n = copy.Attribute("name")) copy.SetAttribute("name", prefix + n);
+      if (copy.ValueStr() == "joint") {
+        prefix_child(&copy, "parent", "link", prefix, world);
+        prefix_child(&copy, "child", "link", prefix, "");
+        const TiXmlElement* p = copy.FirstChildElement("parent");
+        if (p && world == p->Attribute("link")) {  // the floating joint: move the vehicle back
+          TiXmlElement* origin = copy.FirstChildElement("origin");
+          double xyz[3] = {0.0, 0.0, 0.0};
+          if (origin && origin->Attribute("xyz")) {
+            std::istringstream in(origin->Attribute("xyz"));
+            in.imbue(std::locale::classic());
+            in >> xyz[0] >> xyz[1] >> xyz[2];
+          } else if (!origin) {
+            copy.InsertEndChild(TiXmlElement("origin"));
+            origin = copy.FirstChildElement("origin");
+          }
+          xyz[0] -= i * spacing;
+          origin->SetAttribute("xyz", fixed_number(xyz[0]) + " " + fixed_number(xyz[1]) + " " + fixed_number(xyz[2]));
+        }
+      }
+      out_robot.InsertEndChild(copy);
+    }
+    for (const TiXmlElement* e = loops->FirstChildElement("loop_joint"); e; e = e->NextSiblingElement("loop_joint")) {
+      TiXmlElement copy(*e);
+      if (const char* n = copy.Attribute("name")) copy.SetAttribute("name", prefix + n);
+      prefix_child(&copy, "parent", "link", prefix, world);
+      prefix_child(&copy, "child", "link", prefix, world);
+      out_loops.InsertEndChild(copy);
+    }
+  }
+  for (int i = 0; i + 1 < vehicles; ++i) {
+    TiXmlElement hitch("loop_joint");
+    hitch.SetAttribute("name", "hitch_" + std::to_string(i));
+    hitch.SetAttribute("type", "spherical");
+    TiXmlElement parent("parent"), child("child"), origin("origin"), child_origin("child_origin");
+    parent.SetAttribute("link", "v" + std::to_string(i) + "_" + root_link);
+    child.SetAttribute("link", "v" + std::to_string(i + 1) + "_" + root_link);
+    origin.SetAttribute("xyz", fixed_number(-spacing / 2) + " 0 0");
+    origin.SetAttribute("rpy", "0 0 0");
+    child_origin.SetAttribute("xyz", fixed_number(spacing / 2) + " 0 0");
+    child_origin.SetAttribute("rpy", "0 0 0");
+    hitch.InsertEndChild(parent);
+    hitch.InsertEndChild(child);
+    hitch.InsertEndChild(origin);
+    hitch.InsertEndChild(child_origin);
+    out_loops.InsertEndChild(hitch);
+  }
+  out_urdf.InsertEndChild(out_robot);
+  TiXmlDocument out_cuts;
+  out_cuts.InsertEndChild(TiXmlDeclaration("1.0", "", ""));
+  out_cuts.InsertEndChild(out_loops);
+  TiXmlPrinter p1, p2;
+  p1.SetIndent("  ");
+  p2.SetIndent("  ");
+  out_urdf.Accept(&p1);
+  out_cuts.Accept(&p2);
+  return {p1.Str(), p2.Str()};
+}
+
+}  // namespace jrgen::testing

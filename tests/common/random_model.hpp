@@ -61,3 +61,28 @@ std::string chain_urdf(int num_joints, std::uint64_t seed);
 std::string add_floating_base(const std::string& urdf_text);
 
 }  // namespace jrgen::testing
+
+namespace jrgen::testing {
+
+/// A URDF and the text of its --cuts file.
+struct ModelWithCuts {
+  std::string urdf;
+  std::string cuts;
+};
+
+/// A vehicle train (issue 4, item 3): `vehicles` copies of a vehicle model
+/// (`vehicle_urdf`, whose root link "world" carries one floating joint, and
+/// its <loop_joints> `vehicle_cuts`), each on its own floating joint to the
+/// world.  Copy i (0-based) has every link, joint and loop joint name
+/// prefixed with "v<i>_" and its floating joint's origin moved by
+/// -i * spacing along x; consecutive vehicles are coupled by spherical cut
+/// joints "hitch_<i>" (vehicle i's root link at (-spacing/2, 0, 0) to
+/// vehicle i+1's root link at (+spacing/2, 0, 0), both in the link frames),
+/// which coincide at the zero configuration, so the train assembles there.
+/// Cuts file order: every vehicle's own cuts, vehicle by vehicle, then the
+/// hitches.  Robot name "train_<vehicles>".  Throws std::invalid_argument
+/// when vehicles < 1 or the vehicle is not of that shape.
+ModelWithCuts vehicle_train(int vehicles, const std::string& vehicle_urdf, const std::string& vehicle_cuts,
+                            double spacing = 6.0);
+
+}  // namespace jrgen::testing

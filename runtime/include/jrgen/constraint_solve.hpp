@@ -1,0 +1,73 @@
+// jrgen runtime: table-driven Step 3 (3.1-3.5) of the algorithm of Section 4.3
+// (Negrut, Serban & Potra 1997), for closed-loop models whose straight-line
+// Step 3 would be too large to compile (the generator chooses).  The same
+// arithmetic as the generated straight-line code, as loops over plain tables:
+//
+//   T layout (Lemma 3): kept row g of cut c stores one entry per dof of the
+//     cut's dof list (the dofs on the paths of its two bodies to the base, in
+//     increasing Lemma 2 order), from row_t_start[g]; the entries of the
+//     common ancestors (index >= num_distinct) hold no Phiq entry (it is 0
+//     there) but T generally is non-zero there.
+//   W = T^T T (or U^T D^-1 U with L D L^T) and its Cholesky factor, packed by
+//     columns in a fill-reducing elimination order: position j is kept row
+//     order[j]; column j holds the diagonal at W_col_start[j], then the rows
+//     W_row[e] (elimination positions, ascending, fill included) up to
+//     W_col_start[j + 1]; W_structural[e] is 0 for pure fill (Step 3.3 writes
+//     0 there).  The factor's pattern must be closed under elimination (the
+//     symbolic Cholesky factorization of that order).
+//
+// Index spaces: dofs are Lemma 2 dofs (runtime.hpp); kept rows, gamma, z_m and
+// lambda are in the user's row order; W is in elimination positions.
+#pragma once
+
+#include <cstdint>
+
+#include "jrgen/runtime.hpp"
+
+namespace jr {
+
+struct ConstraintSolveModel {
+  std::int32_t ncuts;
+  std::int32_t nc;                      ///< kept rows (m)
+  const std::int32_t* cut_dof_start;    ///< (ncuts + 1) start of each cut's list in cut_dofs
+  const std::int32_t* cut_dofs;         ///< Lemma 3 dof lists, ascending Lemma 2 dofs
+  const std::int32_t* cut_parent_index; ///< per cut_dofs entry: index in the same cut's list of dof_parent, or -1
+  const std::int32_t* cut_num_distinct; ///< (ncuts) dofs on one path only (a prefix of the list)
+  const std::int32_t* row_cut;          ///< (nc) cut of kept row g
+  const std::int32_t* row_t_start;      ///< (nc) first packed T entry of kept row g
+  const std::int32_t* order;            ///< (nc) elimination position -> kept row
+  const std::int32_t* W_col_start;      ///< (nc + 1) packed column starts of W (diagonal first)
+  const std::int32_t* W_row;            ///< (W_col_start[nc]) elimination position of each entry
+  const std::uint8_t* W_structural;     ///< (W_col_start[nc]) 1: non-zero in T^T T, 0: fill
+};
+
+/// Step 3.1: L T = Phiq^T in place (T holds the packed Phiq on entry), only
+/// the rows of Lemma 3.  ldlt: L has a unit diagonal (U = L^-1 Phiq^T) and
+/// Dinv is not read (may be nullptr); otherwise each entry is scaled by Dinv.
+void constraint_solve_T(const Model& model, const ConstraintSolveModel& cs, const double* L, const double* Dinv,
+                        bool ldlt, double* T);
+
+/// Step 3.2: z_m = T^T z_n - gamma; with ldlt, V = D^-1 U (kept for Step
+/// 3.3, same layout as T) and z_m = V^T y - gamma.  z (nv, Lemma 2 order).
+void constraint_rhs(const ConstraintSolveModel& cs, const double* T, const double* Dinv, const double* z,
+                    const double* gamma, bool ldlt, double* V, double* zm);
+
+/// Step 3.3: W = A^T T over the structural entries (A = T, or V with ldlt),
+/// summing over the dofs the two rows' cuts share; fill entries set to 0.
+void constraint_schur(const ConstraintSolveModel& cs, const double* A, const double* T, double* W);
+
+/// Step 3.4 (a): W = L_W L_W^T (or L_W D_W L_W^T, D_W on the diagonal) in
+/// place, right-looking over the packed pattern; Winv[j] = 1 / pivot j.
+/// Returns -1, or the kept row (user order) whose pivot was
+/// <= pivot_tolerance * W[j, j] (or NaN), with that pivot in *pivot.
+std::int32_t constraint_factor(const ConstraintSolveModel& cs, double* W, double* Winv, bool ldlt,
+                               double pivot_tolerance, double* pivot);
+
+/// Step 3.4 (b): W lambda = z_m in place (z_m and lambda in user row order).
+void constraint_solve_lambda(const ConstraintSolveModel& cs, const double* W, const double* Winv, bool ldlt,
+                             double* zm);
+
+/// Step 3.5: z_n -= T lambda (y_n = T lambda, Step 4 then solves with z_n - y_n).
+void constraint_update(const ConstraintSolveModel& cs, const double* T, const double* lambda, double* z);
+
+}  // namespace jr
