@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "jrgen/factor.hpp"
+#include "kernels.hpp"
 
 namespace jr {
 
@@ -41,8 +42,7 @@ bool factor_column(const Model& model, std::int32_t j, double* L, double* Dinv, 
   std::int32_t s = parent[j];
   for (std::int32_t a = 0; a < own; ++a, s = parent[s]) {
     const double f = col[a] * scale;
-    double* cs = L + start[s];
-    for (std::int32_t b = a; b < na; ++b) cs[b - a] -= col[b] * f;
+    detail::subtract_scaled(L + start[s], col + a, f, na - a);
   }
   for (std::int32_t a = own; a < na; ++a) {
     const double f = col[a] * scale;

@@ -14,6 +14,8 @@
 //   (f) motion cross force:   [w;v] x* [n;f]    = [w x n + v x f; w x f]
 #include "jrgen/runtime.hpp"
 
+#include "kernels.hpp"
+
 #include <Eigen/Geometry>
 #include <cmath>
 
@@ -135,38 +137,39 @@ void kinematics(const Model& model, BodyState* bodies, const double* q) {
     const Vector3d p_PJ = vec3(bm.p_PJ);
     const Vector3d axis = vec3(bm.axis);
     Vector3d t = Vector3d::Zero();  // translation of C's origin in J
-    b.S.setZero();
+    // Only the joint's nv columns of S exist (BodyState); the rest stays untouched.
+    b.S.leftCols(bm.nv).setZero();
+    Matrix3d R_J = Matrix3d::Identity();  // rotation of the joint alone (C relative to J)
     switch (bm.kind) {
       case JointKind::kRevolute:
-        b.R_J = axis_rotation(axis, qi[0]);
+        R_J = axis_rotation(axis, qi[0]);
         b.S.col(0).head<3>() = axis;  // the axis is fixed under its own rotation
         break;
       case JointKind::kPrismatic:
-        b.R_J.setIdentity();
         t = axis * qi[0];
         b.S.col(0).tail<3>() = axis;
         break;
       case JointKind::kBall:
-        b.R_J = quaternion_rotation(qi);
+        R_J = quaternion_rotation(qi);
         b.S.topLeftCorner<3, 3>().setIdentity();
         break;
       case JointKind::kFloating:
-        b.R_J = quaternion_rotation(qi + 3);
+        R_J = quaternion_rotation(qi + 3);
         t = vec3(qi);
-        b.S.block<3, 3>(3, 0) = b.R_J.transpose();  // pdot is in J, S in C
+        b.S.block<3, 3>(3, 0) = R_J.transpose();  // pdot is in J, S in C
         b.S.block<3, 3>(0, 3).setIdentity();
         break;
       case JointKind::kPlanar: {
         const Vector3d e1 = vec3(bm.e1), e2 = vec3(bm.e2);
-        b.R_J = axis_rotation(axis, qi[2]);
+        R_J = axis_rotation(axis, qi[2]);
         t = e1 * qi[0] + e2 * qi[1];
-        b.S.col(0).tail<3>() = b.R_J.transpose() * e1;
-        b.S.col(1).tail<3>() = b.R_J.transpose() * e2;
+        b.S.col(0).tail<3>() = R_J.transpose() * e1;
+        b.S.col(1).tail<3>() = R_J.transpose() * e2;
         b.S.col(2).head<3>() = axis;
         break;
       }
     }
-    b.R = R_PJ * b.R_J;
+    b.R = R_PJ * R_J;
     b.p = p_PJ + R_PJ * t;
   }
 }
@@ -681,8 +684,7 @@ std::int32_t factor_packed(const Model& model, double* L, double* Dinv, bool ldl
       std::int32_t s = parent[j];
       for (std::int32_t a = 0; a < len - 1; ++a, s = parent[s]) {
         const double f = col[a] * dinv;  // L[s, j] after scaling
-        double* cs = L + start[s];
-        for (std::int32_t b = a; b < len - 1; ++b) cs[b - a] -= col[b] * f;
+        detail::subtract_scaled(L + start[s], col + a, f, len - 1 - a);
       }
       for (std::int32_t a = 0; a < len - 1; ++a) col[a] *= dinv;
     } else {
@@ -693,9 +695,7 @@ std::int32_t factor_packed(const Model& model, double* L, double* Dinv, bool ldl
       for (std::int32_t a = 0; a < len - 1; ++a) col[a] *= linv;
       std::int32_t s = parent[j];
       for (std::int32_t a = 0; a < len - 1; ++a, s = parent[s]) {
-        const double f = col[a];
-        double* cs = L + start[s];
-        for (std::int32_t b = a; b < len - 1; ++b) cs[b - a] -= col[b] * f;
+        detail::subtract_scaled(L + start[s], col + a, col[a], len - 1 - a);
       }
     }
   }

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "jrgen/factor.hpp"
+#include "kernels.hpp"
 
 namespace jr {
 
@@ -33,9 +34,7 @@ bool factor_column(const Model& model, std::int32_t j, double* L, double* Dinv, 
   for (std::int32_t a = 0; a < len - 1; ++a) col[a] *= linv;
   std::int32_t s = parent[j];
   for (std::int32_t a = 0; a < len - 1; ++a, s = parent[s]) {
-    const double f = col[a];
-    double* cs = L + start[s];
-    for (std::int32_t b = a; b < len - 1; ++b) cs[b - a] -= col[b] * f;
+    detail::subtract_scaled(L + start[s], col + a, col[a], len - 1 - a);
   }
   return true;
 }

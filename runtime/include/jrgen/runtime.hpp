@@ -77,15 +77,19 @@ using Matrix6Xd = Eigen::Matrix<double, 6, 6>;  // only the first nv columns are
 
 /// Per-body workspace (Lemma 2 order), filled by kinematics() and the passes
 /// below.  The caller owns an array of Model::nb of them; nothing allocates.
+/// Every pass of forward dynamics sweeps this array, so the fields they use
+/// come first and S last among them: only its first nv columns are ever
+/// written or read, and the rest of it (5 of 6 columns for a revolute joint)
+/// never reaches the caches.  Large models outgrow L2 on this array
+/// (docs/scale.md), so its touched size is the per-body cost.
 struct BodyState {
   Eigen::Matrix3d R;   ///< R_PC: body frame C to parent body frame P
   Eigen::Vector3d p;   ///< p_PC: body origin in P
-  Eigen::Matrix3d R_J; ///< rotation of the joint alone (C relative to J)
-  Matrix6Xd S;         ///< motion subspace in C coordinates, first nv columns
   Vector6d v;          ///< body velocity, C coordinates
   Vector6d a;          ///< body bias acceleration (qdd = 0), C coordinates
   Vector6d f;          ///< body force, C coordinates
   SpatialInertia Ic;   ///< composite inertia of the subtree, C coordinates
+  Matrix6Xd S;         ///< motion subspace in C coordinates; only the first nv columns are set
   Eigen::Matrix3d R_WC;  ///< world orientation (world_poses())
   Eigen::Vector3d p_WC;  ///< world position (world_poses())
 };
