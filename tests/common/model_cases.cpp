@@ -114,6 +114,16 @@ std::vector<ModelCase> random_trees() {
     o.max_depth = 4;
     out.push_back({"random_depth4_" + std::to_string(n), random_tree_urdf(o)});
   }
+  // Stiff trees: body masses spread log-uniformly over 4 and 8 decades on a
+  // floating base (tests/generated/extreme_test.cpp, docs/extreme.md).
+  for (const auto& [label, ratio] : {std::pair{"1e4", 1e4}, std::pair{"1e8", 1e8}}) {
+    RandomTreeOptions o;
+    o.seed = seed++;
+    o.num_bodies = 40;
+    o.floating_base = true;
+    o.mass_ratio = ratio;
+    out.push_back({std::string("stiff_mass_") + label, random_tree_urdf(o)});
+  }
   return out;
 }
 
@@ -156,6 +166,18 @@ std::vector<ModelCase> loop_models() {
     co.num_cuts = 1 + static_cast<int>(seed % 3);
     out.push_back({"loops_random_" + std::to_string(o.num_bodies) + "_seed" + std::to_string(seed), urdf,
                    random_cuts_xml(urdf, co)});
+  }
+  // A stiff closed loop: masses over 6 decades, two random cuts.
+  {
+    RandomTreeOptions o;
+    o.seed = 400;
+    o.num_bodies = 20;
+    o.mass_ratio = 1e6;
+    const std::string urdf = random_tree_urdf(o);
+    RandomCutOptions co;
+    co.seed = 3;
+    co.num_cuts = 2;
+    out.push_back({"loops_stiff_mass_1e6", urdf, random_cuts_xml(urdf, co)});
   }
   // Vehicle trains (random_model.hpp, vehicle_train): 2 and 3 HMMWVs hitched
   // by spherical cut joints; T^T T is block tridiagonal.
