@@ -7,8 +7,8 @@
 namespace jr::detail {
 
 /// y[0, n) -= f x[0, n).  Callers pass two distinct columns of the packed
-/// factor (column j and one of its ancestors, Lemma 2), or a column and a
-/// private buffer: the ranges never overlap.  Saying so lets the compiler
+/// factor (column j and one of its ancestors, Lemma 2): the ranges never
+/// overlap.  Saying so lets the compiler
 /// drop the run-time overlap test it would otherwise put around each of these
 /// short updates (the table-driven Step 1 runs one per entry of L), and the
 /// two-way unrolling suits the short lengths (a few ancestors per column).
