@@ -1,11 +1,11 @@
 // forward_dynamics against size, every model in one process (issue "First
 // benchmark": time linear in DOF on bounded-depth trees, 10000 vs 1000 DOF at
 // most 12x).  The solvers are the same generated libraries as the per-model
-// programs (tests/bench/CMakeLists.txt, jrgen_bench_scaling()); all of them
-// run interleaved in random order (--benchmark_enable_random_interleaving, set
-// by run_benchmarks.sh), so a drift of the machine's clock hits every size
-// alike and the ratios between sizes are meaningful even where the absolute
-// times wander.  Accuracy of the same solvers on the same kind of states:
+// programs (tests/bench/CMakeLists.txt, bench_scaling).  Run it with
+// --benchmark_enable_random_interleaving=true and repetitions (as for
+// docs/benchmarks.md, run 3): the sizes then run interleaved in random order,
+// so a drift of the machine's clock hits every size alike and the ratios
+// between sizes are meaningful even where the absolute times wander.  Accuracy of the same solvers on the same kind of states:
 // the err counters of bench_<model> (docs/benchmarks.md).
 //
 // Each benchmark cycles through 16 seeded random states (q, v, tau uniform in

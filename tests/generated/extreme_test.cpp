@@ -22,7 +22,6 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
-#include <cmath>
 #include <cstdio>
 #include <random>
 #include <string>
@@ -44,13 +43,13 @@ const GeneratedSolver& solver(const std::string& target) {
   throw std::runtime_error("no generated solver " + target);
 }
 
-// q with unit quaternions for every ball and floating joint, the rest uniform
-// in [-1, 1].
+// q uniform in [-1, 1], quaternion entries included: the solver normalizes
+// them (INTERFACE.md section 3).
 Eigen::VectorXd random_q(const GeneratedSolver& s, std::mt19937_64& rng) {
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   Eigen::VectorXd q(s.nq);
   for (int i = 0; i < s.nq; ++i) q[i] = u(rng);
-  return q;  // the solver normalizes quaternions (INTERFACE.md section 3)
+  return q;
 }
 
 long double rel(const Eigen::VectorXd& x, const VectorXld& ref) {

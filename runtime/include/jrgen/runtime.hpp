@@ -81,7 +81,7 @@ using Matrix6Xd = Eigen::Matrix<double, 6, 6>;  // only the first nv columns are
 /// come first and S last among them: only its first nv columns are ever
 /// written or read, and the rest of it (5 of 6 columns for a revolute joint)
 /// never reaches the caches.  Large models outgrow L2 on this array
-/// (docs/scale.md), so its touched size is the per-body cost.
+/// (docs/benchmarks.md, run 3), so its touched size is the per-body cost.
 struct BodyState {
   Eigen::Matrix3d R;   ///< R_PC: body frame C to parent body frame P
   Eigen::Vector3d p;   ///< p_PC: body origin in P
