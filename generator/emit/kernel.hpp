@@ -38,6 +38,10 @@ inline constexpr int kMinParallelDofs = 10000;
 // Above this many packed entries, solve_augmented's gather of M walks the dof
 // tree instead of reading a table of source indices (source size).
 inline constexpr long long kMaxGatherTable = 1 << 20;
+// Closed-loop models with at least this many kept rows, all reaching some
+// common dofs (T^T T dense), get the runtime's dense loops for that part of
+// Steps 3.3 and 3.4 (docs/benchmarks.md, run 4).
+inline constexpr int kMinDenseSchurRows = 8;
 // Sums of more products than this are split into partial sums.
 inline constexpr std::size_t kMaxTermsPerStatement = 8;
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <map>
+#include <stdexcept>
 
 #include "analysis/runtime_model.hpp"
 #include "emit/format.hpp"
@@ -51,10 +52,6 @@ int dof_index(const topology::Cut& cut, int dof) {
   return static_cast<int>(std::lower_bound(cut.dofs.begin(), cut.dofs.end(), dof) - cut.dofs.begin());
 }
 
-std::string T(const Row& row, const topology::Cut& cut, int dof) {
-  return fmt::format("T[{}]", row.t_start + dof_index(cut, dof));
-}
-
 // The chains of a cut: dofs on the path from k (and from l) to the base.
 std::vector<int> chain(const topology::Tree& t, int body) {
   std::vector<int> out;
@@ -76,9 +73,35 @@ std::vector<std::vector<int>> cut_descendants(const topology::Tree& t, const top
   return out;
 }
 
+// T = L^-1 Phiq^T by its rows (the straight-line Step 3): for each dof, the
+// kept rows whose cut reaches it, in elimination order, and where they start.
+struct TByDofs {
+  std::vector<std::vector<int>> rows;  ///< per dof: kept rows (user order), by elimination position
+  std::vector<int> start;              ///< per dof: first entry (nv + 1)
+  std::vector<int> position;           ///< kept row -> elimination position
+  int at(int dof, int row) const {
+    const std::vector<int>& r = rows[dof];
+    const auto it = std::lower_bound(r.begin(), r.end(), row,
+                                     [&](int a, int b) { return position[a] < position[b]; });
+    return start[dof] + static_cast<int>(it - r.begin());
+  }
+};
+
 std::string row_label(const topology::Tree& t, const Row& row) {
   const topology::Cut& cut = t.cuts[row.cut];
   return fmt::format("loop joint '{}' row {}", comment_text(cut.name), row.type_row + 1);
+}
+
+TByDofs t_by_dofs(const topology::Tree& t, const std::vector<Row>& rows, const SchurPattern& sp) {
+  TByDofs td;
+  td.rows.assign(t.nv, {});
+  td.position.assign(rows.size(), 0);
+  for (int p = 0; p < sp.m; ++p) td.position[sp.order[p]] = p;
+  for (int p = 0; p < sp.m; ++p)
+    for (int dof : t.cuts[rows[sp.order[p]].cut].dofs) td.rows[dof].push_back(sp.order[p]);
+  td.start.assign(t.nv + 1, 0);
+  for (int i = 0; i < t.nv; ++i) td.start[i + 1] = td.start[i] + static_cast<int>(td.rows[i].size());
+  return td;
 }
 
 // The tables of the table-driven Step 3 (jr::ConstraintSolveModel), and the
@@ -383,13 +406,18 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
   // ---- workspace ----
   out.workspace = fmt::format(
       "thread_local jr::BodyMotion g_motion[{}];\n"
-      "thread_local double g_T[{}];     // packed Phiq, overwritten by T (Step 3.1)\n"
       "{}"
       "thread_local double g_gamma[{}];\n"
       "thread_local double g_W[{}];     // T^T T packed (fill included), factored in place\n"
       "thread_local double g_Winv[{}];  // inverse pivots of T^T T\n"
       "thread_local double g_zm[{}];    // z_m (Step 3.2), then lambda (Step 3.4)",
-      nb, phiq_nnz, ldlt ? fmt::format("thread_local double g_V[{}];     // D^-1 U (Step 3.2)\n", phiq_nnz) : "",
+      nb,
+      (unrolled ? fmt::format("thread_local double g_T[{0}];     // packed Phiq, cut row by cut row\n"
+                              "thread_local double g_Tr[{0}];    // T = L^-1 Phiq^T by dofs (Step 3.1)\n",
+                              phiq_nnz)
+                : fmt::format("thread_local double g_T[{}];     // packed Phiq, overwritten by T (Step 3.1)\n",
+                              phiq_nnz)) +
+          (ldlt ? fmt::format("thread_local double g_V[{}];     // D^-1 U (Step 3.2)\n", phiq_nnz) : ""),
       m, sp.nnz(), m, m);
 
   if (!unrolled) {
@@ -397,52 +425,96 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
     return out;
   }
 
+  // ---- T by dofs (rows of T = L^-1 Phiq^T, nv x m) ----
+  // The straight-line Steps 3.1-3.5 keep T by its rows: for dof i, the entries
+  // of the constraint rows R_i whose cut reaches i (Lemma 3), ordered by their
+  // elimination position (Step 3.4).  Rows of one cut then sit side by side
+  // wherever they appear, so the statements of neighbouring rows read and
+  // write neighbouring memory and the compiler can pair them into vector
+  // instructions; and a descendant's R_v is a subset of R_i (its cut's path to
+  // the base passes through i).  The packed Phiq stays as the runtime writes it
+  // (P, cut row by cut row); Step 3.1 reads it and writes T.
+  const TByDofs td = t_by_dofs(t, rows, sp);
+  auto Tr = [&](int dof, int g) { return fmt::format("T[{}]", td.at(dof, g)); };
+
+  // ---- Dense part of T^T T ----
+  // Dofs that every kept row reaches (a floating base under all the loops)
+  // make every pair of rows share a dof: T^T T and its factor are dense.  If
+  // those dofs are consecutive, their rows of T form one k x m row-major
+  // block, and Steps 3.3 and 3.4 call the runtime's compact dense loops for
+  // it (jrgen/constraint_solve.hpp) instead of unrolling the dense part.
+  int dense_first = -1, dense_dofs = 0;
+  if (m >= kMinDenseSchurRows) {
+    std::vector<int> full;
+    for (int i = 0; i < t.nv; ++i)
+      if (static_cast<int>(td.rows[i].size()) == m) full.push_back(i);
+    if (!full.empty() && full.back() - full.front() + 1 == static_cast<int>(full.size())) {
+      dense_first = full.front();
+      dense_dofs = static_cast<int>(full.size());
+    }
+  }
+  const bool dense_schur = dense_dofs > 0;
+  const int dense_last = dense_first + dense_dofs;  // one past
+  if (dense_schur)
+    for (int j = 0; j < m; ++j)  // the dense packed layout of schur_dense_*
+      if (sp.col_start[j] != j * m - j * (j - 1) / 2 || static_cast<int>(sp.pattern[j].size()) != m - 1 - j)
+        throw std::logic_error("emit_loops: T^T T not dense although every row shares a dof");
+
   // ---- Step 3.1: L T = Phiq^T, only the rows of Lemma 3 ----
   Kernel k31;
-  for (int g = 0; g < m; ++g) {
-    const Row& row = rows[g];
-    const topology::Cut& cut = t.cuts[row.cut];
-    const std::vector<std::vector<int>> cdesc = cut_descendants(t, cut);
-    Kernel::Unit& u = k31.unit();
-    u.lines.push_back(fmt::format("// column {}: {} ({} dofs on the paths of its bodies, {} of them common)", g,
-                                  row_label(t, row), cut.dofs.size(), cut.dofs.size() - cut.num_distinct));
-    for (std::size_t idx = 0; idx < cut.dofs.size(); ++idx) {
-      const int i = cut.dofs[idx];
-      std::vector<Term> terms;
-      for (int v : cdesc[idx]) terms.push_back({L(t, i, v), T(row, cut, v)});
-      const std::string target = T(row, cut, i);
-      // Common ancestors of k and l: Phiq is exactly zero there.
-      const std::string base = static_cast<int>(idx) < cut.num_distinct ? target : "";
-      if (terms.empty() && base.empty()) {  // (cannot happen: a common dof has descendants on the paths)
-        u.lines.push_back(target + " = 0.0;");
-        ++u.statements;
-      } else if (!ldlt) {
-        k31.update(u, "", target, base, terms, fmt::format("Dinv[{}]", i));
-      } else if (!terms.empty()) {  // unit diagonal: U = Phiq^T where nothing is subtracted
-        k31.update(u, "", target, base, terms, "");
+  {
+    std::vector<std::vector<std::vector<int>>> cdesc(t.cuts.size());
+    for (std::size_t c = 0; c < t.cuts.size(); ++c) cdesc[c] = cut_descendants(t, t.cuts[c]);
+    for (int i = 0; i < t.nv; ++i) {
+      if (td.rows[i].empty()) continue;
+      Kernel::Unit& u = k31.unit();
+      u.lines.push_back(fmt::format("// row {} of T: {} ({} constraint rows)", i, dof_label(t, i), td.rows[i].size()));
+      for (int g : td.rows[i]) {
+        const Row& row = rows[g];
+        const topology::Cut& cut = t.cuts[row.cut];
+        const int idx = dof_index(cut, i);
+        std::vector<Term> terms;
+        for (int v : cdesc[row.cut][idx]) terms.push_back({L(t, i, v), Tr(v, g)});
+        const std::string target = Tr(i, g);
+        // Common ancestors of k and l: Phiq is exactly zero there.
+        const std::string base = idx < cut.num_distinct ? fmt::format("P[{}]", row.t_start + idx) : "";
+        if (terms.empty() && base.empty()) {  // (cannot happen: a common dof has descendants on the paths)
+          u.lines.push_back(target + " = 0.0;");
+          ++u.statements;
+        } else if (!ldlt) {
+          k31.update(u, "", target, base, terms, fmt::format("Dinv[{}]", i));
+        } else {  // unit diagonal
+          k31.update(u, "", target, base, terms, "");
+        }
       }
     }
   }
 
   // ---- Step 3.2: z_m = T^T z_n - gamma (LDLT: V = D^-1 U, z_m = V^T y - gamma) ----
   Kernel k32;
-  for (int g = 0; g < m; ++g) {
+  if (ldlt) {
+    for (int i = 0; i < t.nv; ++i) {
+      if (td.rows[i].empty()) continue;
+      Kernel::Unit& u = k32.unit();
+      u.lines.push_back(fmt::format("// V, row {}: {}", i, dof_label(t, i)));
+      for (int g : td.rows[i]) {
+        const std::string Ti = Tr(i, g);
+        u.lines.push_back(fmt::format("V{} = {} * Dinv[{}];", Ti.substr(1), Ti, i));
+        ++u.statements;
+        k32.ops.mul += 1;
+      }
+    }
+  }
+  for (int p = 0; p < m; ++p) {
+    const int g = sp.order[p];
     const Row& row = rows[g];
     const topology::Cut& cut = t.cuts[row.cut];
     Kernel::Unit& u = k32.unit();
     u.lines.push_back(fmt::format("// row {}: {}", g, row_label(t, row)));
     std::vector<Term> terms;
     for (int i : cut.dofs) {
-      const std::string Ti = T(row, cut, i);
-      if (ldlt) {
-        const std::string Vi = "V" + Ti.substr(1);
-        u.lines.push_back(fmt::format("{} = {} * Dinv[{}];", Vi, Ti, i));
-        ++u.statements;
-        k32.ops.mul += 1;
-        terms.push_back({Vi, fmt::format("z[{}]", i)});
-      } else {
-        terms.push_back({Ti, fmt::format("z[{}]", i)});
-      }
+      const std::string Ti = Tr(i, g);
+      terms.push_back({ldlt ? "V" + Ti.substr(1) : Ti, fmt::format("z[{}]", i)});
     }
     k32.assign_sum(u, "", fmt::format("zm[{}]", g), terms, fmt::format("gamma[{}]", g));
   }
@@ -451,9 +523,23 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
   Kernel k33;
   // Positions of the elimination order (Step 3.4) -> kept rows (user order).
   auto row_at = [&](int position) -> const Row& { return rows[sp.order[position]]; };
+  if (dense_schur) {
+    Kernel::Unit& u = k33.unit();
+    u.lines.push_back(fmt::format("// dense part: the {} dofs {} to {} reached by every row ({} .. {})", dense_dofs,
+                                  dense_first, dense_first + dense_dofs - 1, dof_label(t, dense_first),
+                                  dof_label(t, dense_first + dense_dofs - 1)));
+    const std::string block = fmt::format("T + {}", td.start[dense_first]);
+    u.lines.push_back(fmt::format("jr::schur_dense_gram({}, {}, {}, {}, W);", ldlt ? "V" + block.substr(1) : block,
+                                  block, dense_dofs, m));
+    ++u.statements;
+    const long long entries = static_cast<long long>(m) * (m + 1) / 2;
+    k33.ops.mul += entries * dense_dofs;
+    k33.ops.add += entries * (dense_dofs - 1);
+  }
   for (int j = 0; j < m; ++j) {
     Kernel::Unit& u = k33.unit();
-    u.lines.push_back(fmt::format("// column {}: {}", j, row_label(t, row_at(j))));
+    u.lines.push_back(fmt::format("// column {}: {}{}", j, row_label(t, row_at(j)),
+                                  dense_schur ? " (the other shared dofs)" : ""));
     const topology::Cut& cj = t.cuts[row_at(j).cut];
     auto entry = [&](int r) {
       const topology::Cut& cr = t.cuts[row_at(r).cut];
@@ -461,11 +547,31 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
       std::vector<int> common;
       std::set_intersection(cj.dofs.begin(), cj.dofs.end(), cr.dofs.begin(), cr.dofs.end(), std::back_inserter(common));
       for (int i : common) {
-        const std::string a = T(row_at(r), cr, i), b = T(row_at(j), cj, i);
+        if (i >= dense_first && i < dense_last) continue;
+        const std::string a = Tr(i, sp.order[r]), b = Tr(i, sp.order[j]);
         terms.push_back({ldlt ? "V" + a.substr(1) : a, b});
       }
       return terms;
     };
+    // Adds the products to the dense part: "W[x] += sum;" (no sum written
+    // when there is nothing outside it).
+    auto accumulate = [&](const std::string& target, const std::vector<Term>& terms) {
+      for (std::size_t from = 0; from < terms.size(); from += kMaxTermsPerStatement) {
+        const std::size_t to = std::min(terms.size(), from + kMaxTermsPerStatement);
+        std::string sum;
+        for (std::size_t k = from; k < to; ++k) sum += (k > from ? " + " : "") + terms[k].a + " * " + terms[k].b;
+        u.lines.push_back(target + " += " + sum + ";");
+        ++u.statements;
+      }
+      k33.ops.mul += static_cast<long long>(terms.size());
+      k33.ops.add += static_cast<long long>(terms.size());
+    };
+    if (dense_schur) {
+      accumulate(fmt::format("W[{}]", sp.position(j, j)), entry(j));
+      for (int r : sp.pattern[j]) accumulate(fmt::format("W[{}]", sp.position(r, j)), entry(r));
+      if (u.statements == 0) k33.units.pop_back();  // nothing outside the dense part
+      continue;
+    }
     k33.assign_sum(u, "", fmt::format("W[{}]", sp.position(j, j)), entry(j), "");
     for (std::size_t e = 0; e < sp.pattern[j].size(); ++e) {
       const int r = sp.pattern[j][e];
@@ -564,12 +670,10 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
   // ---- Step 3.5: y_n = T lambda, subtracted from z_n in place ----
   Kernel k35;
   {
-    std::map<int, std::vector<Term>> by_dof;  // ascending dofs
-    for (int g = 0; g < m; ++g) {
-      const topology::Cut& cut = t.cuts[rows[g].cut];
-      for (int i : cut.dofs) by_dof[i].push_back({T(rows[g], cut, i), fmt::format("zm[{}]", g)});
-    }
-    for (const auto& [i, terms] : by_dof) {
+    for (int i = 0; i < t.nv; ++i) {
+      if (td.rows[i].empty()) continue;
+      std::vector<Term> terms;  // in storage order
+      for (int g : td.rows[i]) terms.push_back({Tr(i, g), fmt::format("zm[{}]", g)});
       Kernel::Unit& u = k35.unit();
       u.lines.push_back(fmt::format("// row {}: {}", i, dof_label(t, i)));
       const std::string z = fmt::format("z[{}]", i);
@@ -592,11 +696,14 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
        "  return status;\n"
        "}\n\n";
   s += k31.functions(
-      "step31_solve_T", ldlt ? "const double* L, double* T" : "const double* L, const double* Dinv, double* T",
-      ldlt ? "L, T" : "L, Dinv, T", false,
-      fmt::format("---- Step 3.1: solve L {0} = Phiq^T in place (T holds the packed Phiq on entry). ----\n"
+      "step31_solve_T",
+      ldlt ? "const double* L, const double* P, double* T" : "const double* L, const double* Dinv, const double* P, double* T",
+      ldlt ? "L, P, T" : "L, Dinv, P, T", false,
+      fmt::format("---- Step 3.1: solve L {0} = Phiq^T (P: the packed Phiq, cut row by cut row). ----\n"
                   "Lemma 3: the column of row r of cut j is non-zero only at dofs of\n"
-                  "d[k] U d[l]; only those are stored and computed.{1}\n"
+                  "d[k] U d[l]; only those are stored and computed.  {0} is stored by\n"
+                  "its rows (dofs, descendants first), each row's constraint rows in\n"
+                  "elimination order, so neighbouring statements touch neighbouring entries.{1}\n"
                   "Ops: {2} add, {3} mul, {4} div.",
                   U, ldlt ? " L has a unit diagonal: U = L^-1 Phiq^T." : "", k31.ops.add, k31.ops.mul, k31.ops.div));
   s += "\n\n";
@@ -620,27 +727,60 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
   s += "\n\n";
   OpCount k34 = k34f.ops;
   k34 += k34s.ops;
-  s += k34f.functions(
-      "step34_factor", "double* W, double* Winv", "W, Winv", true,
-      fmt::format("---- Step 3.4 (a): factor W = {} in place, unrolled, fill included. ----\n"
-                  "Ops: {} add, {} mul, {} div, {} sqrt.",
-                  ldlt ? "L_W D_W L_W^T" : "L_W L_W^T", k34f.ops.add, k34f.ops.mul, k34f.ops.div, k34f.ops.sqrt));
-  s += "\n\n";
-  s += k34s.functions("step34_solve", "const double* W, const double* Winv, double* zm", "W, Winv, zm", false,
-                      fmt::format("---- Step 3.4 (b): solve W lambda = z_m in place. ----\n"
-                                  "Ops: {} add, {} mul, {} div.",
-                                  k34s.ops.add, k34s.ops.mul, k34s.ops.div));
+  if (dense_schur) {
+    // The same arithmetic as the unrolled factorization (and counted so), as
+    // the runtime's left-looking loops over the dense packed W.
+    s += fmt::format(
+        "// ---- Step 3.4 (a): factor W = {0} in place (dense, m = {1}: the runtime's loops). ----\n"
+        "// Ops: {2} add, {3} mul, {4} div, {5} sqrt.\n"
+        "int step34_factor(double* __restrict W, double* __restrict Winv) {{\n"
+        "  double pivot = 0.0;\n"
+        "  const std::int32_t position = jr::schur_dense_factor(W, Winv, {1}, {6}, kPivotTolerance, &pivot);\n"
+        "  return position < 0 ? 0 : constraints_singular(kSchurOrder[position], pivot);\n"
+        "}}\n\n"
+        "// ---- Step 3.4 (b): solve W lambda = z_m in place. ----\n"
+        "// Ops: {7} add, {8} mul, {9} div.\n"
+        "void step34_solve(const double* __restrict W, const double* __restrict Winv, double* __restrict zm) {{\n"
+        "  jr::schur_dense_solve(W, Winv, {1}, kSchurOrder, {6}, g_zw, zm);\n"
+        "}}",
+        ldlt ? "L_W D_W L_W^T" : "L_W L_W^T", m, k34f.ops.add, k34f.ops.mul, k34f.ops.div, k34f.ops.sqrt,
+        ldlt ? "true" : "false", k34s.ops.add, k34s.ops.mul, k34s.ops.div);
+  } else {
+    s += k34f.functions(
+        "step34_factor", "double* W, double* Winv", "W, Winv", true,
+        fmt::format("---- Step 3.4 (a): factor W = {} in place, unrolled, fill included. ----\n"
+                    "Ops: {} add, {} mul, {} div, {} sqrt.",
+                    ldlt ? "L_W D_W L_W^T" : "L_W L_W^T", k34f.ops.add, k34f.ops.mul, k34f.ops.div, k34f.ops.sqrt));
+    s += "\n\n";
+    s += k34s.functions("step34_solve", "const double* W, const double* Winv, double* zm", "W, Winv, zm", false,
+                        fmt::format("---- Step 3.4 (b): solve W lambda = z_m in place. ----\n"
+                                    "Ops: {} add, {} mul, {} div.",
+                                    k34s.ops.add, k34s.ops.mul, k34s.ops.div));
+  }
   s += "\n\n";
   s += k35.functions("step35_update", "const double* T, const double* zm, double* z", "T, zm, z", false,
                      fmt::format("---- Step 3.5: y_n = {} lambda, subtracted from z_n in place (Step 4 then ----\n"
                                  "solves with z_n - y_n). Only rows of dofs some cut reaches.\n"
                                  "Ops: {} add, {} mul, {} div.",
                                  U, k35.ops.add, k35.ops.mul, k35.ops.div));
+  if (dense_schur) {
+    // The dense kernels live in the runtime header: included at file scope.
+    out.tables = fmt::format(
+                     "}}  // namespace\n}}  // namespace {0}\n"
+                     "#include <jrgen/constraint_solve.hpp>  // dense Steps 3.3-3.4\n"
+                     "namespace {0} {{\nnamespace {{\n\n",
+                     name_space) +
+                 out.tables +
+                 fmt::format("\n// Elimination position of Step 3.4 -> kept row (user order).\n"
+                             "constexpr std::int32_t kSchurOrder[{}] = {{ {} }};",
+                             m, join_ints(sp.order));
+    out.workspace += fmt::format("\nthread_local double g_zw[{}];    // lambda in elimination order (Step 3.4)", m);
+  }
   out.step3 = s;
-  out.call_args["step31_args"] = ldlt ? "g_L, g_T" : "g_L, g_Dinv, g_T";
-  out.call_args["step32_args"] = ldlt ? "g_T, g_Dinv, g_z, g_gamma, g_V, g_zm" : "g_T, g_z, g_gamma, g_zm";
-  out.call_args["step33_args"] = ldlt ? "g_T, g_V, g_W" : "g_T, g_W";
-  out.call_args["step35_args"] = "g_T, g_zm, g_z";
+  out.call_args["step31_args"] = ldlt ? "g_L, g_T, g_Tr" : "g_L, g_Dinv, g_T, g_Tr";
+  out.call_args["step32_args"] = ldlt ? "g_Tr, g_Dinv, g_z, g_gamma, g_V, g_zm" : "g_Tr, g_z, g_gamma, g_zm";
+  out.call_args["step33_args"] = ldlt ? "g_Tr, g_V, g_W" : "g_Tr, g_W";
+  out.call_args["step35_args"] = "g_Tr, g_zm, g_z";
   out.ops = {{"3.1", k31.ops}, {"3.2", k32.ops}, {"3.3", k33.ops}, {"3.4", k34}, {"3.5", k35.ops}};
   return out;
 }

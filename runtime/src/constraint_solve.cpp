@@ -152,3 +152,105 @@ void constraint_update(const ConstraintSolveModel& cs, const double* T, const do
 }
 
 }  // namespace jr
+
+namespace jr {
+
+namespace {
+// Column j of the dense packed lower triangle (rows j..m-1).
+inline std::int32_t dense_col(std::int32_t j, std::int32_t m) { return j * m - j * (j - 1) / 2; }
+
+}  // namespace
+
+void schur_dense_gram(const double* A, const double* B, std::int32_t k, std::int32_t m, double* W) {
+  for (std::int32_t j = 0; j < m; ++j) {
+    double* __restrict col = W + dense_col(j, m);
+    const std::int32_t len = m - j;
+    // W[j + r, j] = sum_i A[i, j + r] B[i, j]: the first (up to) four dofs
+    // assign, the rest accumulate, four at a time.
+    if (k == 0)
+      for (std::int32_t r = 0; r < len; ++r) col[r] = 0.0;
+    for (std::int32_t i = 0; i < k; i += 4) {
+      const std::int32_t n = k - i < 4 ? k - i : 4;
+      const std::int64_t at = static_cast<std::int64_t>(i) * m + j;
+      const double* x0 = A + at;
+      const double b0 = B[at];
+      if (n == 4) {
+        const double *x1 = x0 + m, *x2 = x0 + 2 * m, *x3 = x0 + 3 * m;
+        const double b1 = B[at + m], b2 = B[at + 2 * m], b3 = B[at + 3 * m];
+        if (i == 0)
+          for (std::int32_t r = 0; r < len; ++r) col[r] = (b0 * x0[r] + b1 * x1[r]) + (b2 * x2[r] + b3 * x3[r]);
+        else
+          for (std::int32_t r = 0; r < len; ++r) col[r] += (b0 * x0[r] + b1 * x1[r]) + (b2 * x2[r] + b3 * x3[r]);
+      } else if (n == 3) {
+        const double *x1 = x0 + m, *x2 = x0 + 2 * m;
+        const double b1 = B[at + m], b2 = B[at + 2 * m];
+        if (i == 0)
+          for (std::int32_t r = 0; r < len; ++r) col[r] = (b0 * x0[r] + b1 * x1[r]) + b2 * x2[r];
+        else
+          for (std::int32_t r = 0; r < len; ++r) col[r] += (b0 * x0[r] + b1 * x1[r]) + b2 * x2[r];
+      } else if (n == 2) {
+        const double* x1 = x0 + m;
+        const double b1 = B[at + m];
+        if (i == 0)
+          for (std::int32_t r = 0; r < len; ++r) col[r] = b0 * x0[r] + b1 * x1[r];
+        else
+          for (std::int32_t r = 0; r < len; ++r) col[r] += b0 * x0[r] + b1 * x1[r];
+      } else {
+        if (i == 0)
+          for (std::int32_t r = 0; r < len; ++r) col[r] = b0 * x0[r];
+        else
+          for (std::int32_t r = 0; r < len; ++r) col[r] += b0 * x0[r];
+      }
+    }
+  }
+}
+
+std::int32_t schur_dense_factor(double* W, double* Winv, std::int32_t m, bool ldlt, double pivot_tolerance,
+                                double* pivot) {
+  for (std::int32_t j = 0; j < m; ++j) {
+    double* __restrict col = W + dense_col(j, m);
+    const std::int32_t len = m - j;
+    const double original = col[0];
+    // Left-looking: column j (rows j..m-1) less, for each column c left of
+    // it, its rows from j times its entry in row j (times D_c with LDL^T).
+    for (std::int32_t c = 0; c < j; ++c) {
+      const double* __restrict lc = W + dense_col(c, m) + (j - c);
+      const double a = ldlt ? lc[0] * W[dense_col(c, m)] : lc[0];
+      for (std::int32_t r = 0; r < len; ++r) col[r] -= lc[r] * a;
+    }
+    const double d = col[0];
+    if (!(d > pivot_tolerance * original)) {
+      *pivot = d;
+      return j;
+    }
+    const double diag = ldlt ? d : std::sqrt(d);
+    col[0] = diag;
+    const double inv = 1.0 / diag;
+    Winv[j] = inv;
+    for (std::int32_t r = 1; r < len; ++r) col[r] *= inv;
+  }
+  return -1;
+}
+
+void schur_dense_solve(const double* W, const double* Winv, std::int32_t m, const std::int32_t* order, bool ldlt,
+                       double* work, double* zm) {
+  for (std::int32_t j = 0; j < m; ++j) work[j] = zm[order[j]];
+  // Forward, by columns: y_j final, then subtracted from the rows below.
+  for (std::int32_t j = 0; j < m; ++j) {
+    const double* col = W + dense_col(j, m);
+    if (!ldlt) work[j] *= Winv[j];
+    const double y = work[j];
+    for (std::int32_t r = 1; r < m - j; ++r) work[j + r] -= col[r] * y;
+  }
+  // Backward, by columns: column j against the rows below (the products
+  // and their count as in the unrolled solve: no add to a zero).
+  for (std::int32_t j = m - 1; j >= 0; --j) {
+    const double* col = W + dense_col(j, m);
+    double s = ldlt ? work[j] * Winv[j] : work[j];
+    for (std::int32_t r = 1; r < m - j; ++r) s -= col[r] * work[j + r];
+    work[j] = ldlt ? s : s * Winv[j];
+  }
+  for (std::int32_t j = 0; j < m; ++j) zm[order[j]] = work[j];
+}
+
+}  // namespace jr

@@ -70,4 +70,30 @@ void constraint_solve_lambda(const ConstraintSolveModel& cs, const double* W, co
 /// Step 3.5: z_n -= T lambda (y_n = T lambda, Step 4 then solves with z_n - y_n).
 void constraint_update(const ConstraintSolveModel& cs, const double* T, const double* lambda, double* z);
 
+// ---- Dense Schur kernels (used by the straight-line Step 3 too) ----------
+//
+// When some dofs are reached by every kept row (a floating base under all the
+// loops: the HMMWV's chassis), every pair of rows shares a dof, so T^T T and
+// its factor are dense: the generated code then calls these compact loops for
+// the dense part instead of unrolling it (unrolled, Steps 3.3 and 3.4 of the
+// HMMWV are 43 KB of machine code, and the whole solve outgrows the
+// instruction caches; docs/benchmarks.md, run 4).  W is packed by columns,
+// dense lower triangle: column j holds rows j..m-1 from j*m - j*(j-1)/2.
+
+/// Step 3.3, dense part: W = A^T B, lower triangle, where A and B are k x m
+/// row-major (row i: the entries of one dof for the m rows, in elimination
+/// order).  With B = A (LL^T) or A = V = D^-1 U, B = U (LDL^T).
+void schur_dense_gram(const double* A, const double* B, std::int32_t k, std::int32_t m, double* W);
+
+/// Step 3.4 (a), dense: W = L_W L_W^T (or L_W D_W L_W^T) in place, left-looking;
+/// Winv[j] = 1 / pivot j.  Returns -1, or the elimination position whose pivot
+/// was <= pivot_tolerance * W[j, j] (or NaN), with the pivot in *pivot.
+std::int32_t schur_dense_factor(double* W, double* Winv, std::int32_t m, bool ldlt, double pivot_tolerance,
+                                double* pivot);
+
+/// Step 3.4 (b), dense: W lambda = z_m in place; z_m in user row order,
+/// order[j] = kept row at elimination position j; work holds m doubles.
+void schur_dense_solve(const double* W, const double* Winv, std::int32_t m, const std::int32_t* order, bool ldlt,
+                       double* work, double* zm);
+
 }  // namespace jr

@@ -1,0 +1,138 @@
+// The runtime's dense Schur kernels (jrgen/constraint_solve.hpp: the dense
+// part of Steps 3.3 and 3.4 that generated closed-loop solvers call when
+// every constraint row reaches some common dofs) against Eigen, written
+// differently: the Gram product as a dense matrix product, the factor as
+// Eigen's LLT (and as the reconstruction L D L^T = W for LDL^T), the solve as
+// a dense solve of the permuted system.  Sizes 1 to 40, seeded.
+#include <gtest/gtest.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Dense>
+#include <numeric>
+#include <random>
+#include <vector>
+
+#include "common/tolerance.hpp"
+#include "jrgen/constraint_solve.hpp"
+
+namespace jrgen {
+namespace {
+
+using testing::kEps;
+using testing::relative_error;
+
+// Dense packed lower triangle by columns (the kernels' layout).
+std::vector<double> pack(const Eigen::MatrixXd& A) {
+  std::vector<double> W;
+  for (Eigen::Index j = 0; j < A.cols(); ++j)
+    for (Eigen::Index i = j; i < A.rows(); ++i) W.push_back(A(i, j));
+  return W;
+}
+Eigen::MatrixXd unpack_lower(const std::vector<double>& W, int m) {
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(m, m);
+  int e = 0;
+  for (int j = 0; j < m; ++j)
+    for (int i = j; i < m; ++i) A(i, j) = W[e++];
+  return A;
+}
+
+// k x m row-major blocks of T-like data, and an SPD W = T^T T + shift.
+struct Case {
+  int k, m;
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> A, B;
+  Eigen::MatrixXd W;
+  Case(int k_, int m_, unsigned seed) : k(k_), m(m_) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    A.resize(k, m);
+    B.resize(k, m);
+    for (int i = 0; i < k; ++i)
+      for (int j = 0; j < m; ++j) A(i, j) = u(rng), B(i, j) = u(rng);
+    Eigen::MatrixXd G(m + 3, m);
+    for (int i = 0; i < m + 3; ++i)
+      for (int j = 0; j < m; ++j) G(i, j) = u(rng);
+    W = G.transpose() * G;  // well conditioned for these sizes
+  }
+};
+
+class DenseSchur : public ::testing::TestWithParam<int> {};
+
+TEST_P(DenseSchur, GramIsATransposeB) {
+  for (int k : {0, 1, 2, 3, 4, 5, 6, 7, 9}) {
+    const Case c(k, GetParam(), 11 + k);
+    std::vector<double> W(c.m * (c.m + 1) / 2, -7.0);  // overwritten, not accumulated
+    jr::schur_dense_gram(c.A.data(), c.B.data(), k, c.m, W.data());
+    const Eigen::MatrixXd ref = (c.A.transpose() * c.B).triangularView<Eigen::Lower>();
+    // Each entry is a k-term dot product: |error| <= k eps sum |a_i b_i|.
+    const Eigen::MatrixXd bound = (c.A.cwiseAbs().transpose() * c.B.cwiseAbs()).triangularView<Eigen::Lower>();
+    const Eigen::MatrixXd got = unpack_lower(W, c.m);
+    for (int j = 0; j < c.m; ++j)
+      for (int i = j; i < c.m; ++i)
+        EXPECT_LE(std::abs(got(i, j) - ref(i, j)), (k + 1) * kEps * bound(i, j)) << "k " << k << " (" << i << ", " << j << ")";
+  }
+}
+
+TEST_P(DenseSchur, FactorMatchesEigenAndSolves) {
+  const int m = GetParam();
+  const Case c(1, m, 5 + m);
+  // A permuted elimination order, as the generator's kSchurOrder.
+  std::vector<std::int32_t> order(m);
+  std::iota(order.begin(), order.end(), 0);
+  std::shuffle(order.begin(), order.end(), std::mt19937(m));
+  const double cond = [&] {
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(c.W);
+    return es.eigenvalues().maxCoeff() / es.eigenvalues().minCoeff();
+  }();
+  Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(m, -1.0, 2.0);
+  // W in elimination positions: Wp(p, q) = W(order[p], order[q]).
+  Eigen::MatrixXd Wp(m, m);
+  for (int p = 0; p < m; ++p)
+    for (int q = 0; q < m; ++q) Wp(p, q) = c.W(order[p], order[q]);
+  const Eigen::VectorXd x_ref = c.W.llt().solve(b);
+  for (bool ldlt : {false, true}) {
+    std::vector<double> W = pack(Wp), Winv(m), work(m);
+    double pivot = 0.0;
+    ASSERT_EQ(jr::schur_dense_factor(W.data(), Winv.data(), m, ldlt, 1e-14, &pivot), -1);
+    const Eigen::MatrixXd F = unpack_lower(W, m);
+    Eigen::MatrixXd rebuilt;
+    if (ldlt) {
+      Eigen::MatrixXd Lu = F;
+      Lu.diagonal().setOnes();
+      rebuilt = Lu * F.diagonal().asDiagonal() * Lu.transpose();
+      for (int j = 0; j < m; ++j) EXPECT_DOUBLE_EQ(Winv[j], 1.0 / F(j, j));
+    } else {
+      const Eigen::MatrixXd Lref = Wp.llt().matrixL();
+      EXPECT_LE(relative_error(F, Lref), 4 * m * kEps * cond);
+      rebuilt = F * F.transpose();
+      for (int j = 0; j < m; ++j) EXPECT_DOUBLE_EQ(Winv[j], 1.0 / F(j, j));
+    }
+    // Backward stability of Cholesky: ||W - L L^T|| <= c m eps ||W||.
+    EXPECT_LE(relative_error(rebuilt, Wp), 4 * m * kEps) << (ldlt ? "ldlt" : "llt");
+    // The solve, in user row order.
+    Eigen::VectorXd x = b;
+    jr::schur_dense_solve(W.data(), Winv.data(), m, order.data(), ldlt, work.data(), x.data());
+    EXPECT_LE(relative_error(x, x_ref), 8 * m * kEps * cond) << (ldlt ? "ldlt" : "llt");
+  }
+}
+
+TEST_P(DenseSchur, SingularPivotIsReportedAtItsPosition) {
+  const int m = GetParam();
+  if (m < 2) GTEST_SKIP() << "needs two rows";
+  const Case c(1, m, 99 + m);
+  // Row/column p a copy of row/column p - 1: the pivot of position p vanishes.
+  const int p = m / 2;
+  Eigen::MatrixXd S = c.W;
+  S.row(p) = S.row(p - 1);
+  S.col(p) = S.col(p - 1);
+  for (bool ldlt : {false, true}) {
+    std::vector<double> W = pack(S), Winv(m);
+    double pivot = 1.0;
+    EXPECT_EQ(jr::schur_dense_factor(W.data(), Winv.data(), m, ldlt, 1e-10, &pivot), p);
+    EXPECT_LE(std::abs(pivot), 1e-10 * S(p, p));
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Sizes, DenseSchur, ::testing::Values(1, 2, 3, 5, 8, 13, 16, 17, 31, 40));
+
+}  // namespace
+}  // namespace jrgen
