@@ -428,12 +428,11 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
   // ---- T by dofs (rows of T = L^-1 Phiq^T, nv x m) ----
   // The straight-line Steps 3.1-3.5 keep T by its rows: for dof i, the entries
   // of the constraint rows R_i whose cut reaches i (Lemma 3), ordered by their
-  // elimination position (Step 3.4).  Rows of one cut then sit side by side
-  // wherever they appear, so the statements of neighbouring rows read and
-  // write neighbouring memory and the compiler can pair them into vector
-  // instructions; and a descendant's R_v is a subset of R_i (its cut's path to
-  // the base passes through i).  The packed Phiq stays as the runtime writes it
-  // (P, cut row by cut row); Step 3.1 reads it and writes T.
+  // elimination position (Step 3.4); a descendant's R_v is a subset of R_i
+  // (its cut's path to the base passes through i).  The dofs that every row
+  // reaches then hold one contiguous k x m block in the order of W, which the
+  // dense kernels below read as it is.  The packed Phiq stays as the runtime
+  // writes it (P, cut row by cut row); Step 3.1 reads it and writes T.
   const TByDofs td = t_by_dofs(t, rows, sp);
   auto Tr = [&](int dof, int g) { return fmt::format("T[{}]", td.at(dof, g)); };
 

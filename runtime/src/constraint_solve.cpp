@@ -1,4 +1,5 @@
-// Table-driven Step 3 (constraint_solve.hpp).  Each loop does the products of
+// Table-driven Step 3 (constraint_solve.hpp), and the dense Schur kernels
+// that the straight-line Step 3 calls too.  Each loop does the products of
 // the generated straight-line code (generator/emit/loops.cpp), possibly summed
 // in another order: results agree to rounding.
 #include "jrgen/constraint_solve.hpp"
@@ -151,14 +152,11 @@ void constraint_update(const ConstraintSolveModel& cs, const double* T, const do
   }
 }
 
-}  // namespace jr
-
-namespace jr {
+// ---- Dense Schur kernels ----
 
 namespace {
 // Column j of the dense packed lower triangle (rows j..m-1).
 inline std::int32_t dense_col(std::int32_t j, std::int32_t m) { return j * m - j * (j - 1) / 2; }
-
 }  // namespace
 
 void schur_dense_gram(const double* A, const double* B, std::int32_t k, std::int32_t m, double* W) {
