@@ -82,6 +82,16 @@ void Kernel::assign_sum(Unit& u, const std::string& indent, const std::string& t
   ++u.statements;
 }
 
+void Kernel::add_sum(Unit& u, const std::string& indent, const std::string& target, const std::vector<Term>& terms) {
+  ops.mul += static_cast<long long>(terms.size());
+  ops.add += static_cast<long long>(terms.size());
+  for (std::size_t from = 0; from < terms.size(); from += kMaxTermsPerStatement) {
+    const std::size_t to = std::min(terms.size(), from + kMaxTermsPerStatement);
+    u.lines.push_back(indent + target + " += " + products(terms, from, to) + ";");
+    ++u.statements;
+  }
+}
+
 std::string Kernel::functions(const std::string& name, const std::string& params, const std::string& args,
                               bool checked, const std::string& doc) const {
   std::vector<std::vector<const Unit*>> parts(1);

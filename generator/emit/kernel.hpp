@@ -75,6 +75,11 @@ struct Kernel {
   void assign_sum(Unit& u, const std::string& indent, const std::string& target, const std::vector<Term>& terms,
                   const std::string& tail);
 
+  /// Appends "target += sum terms;" (in statements of at most
+  /// kMaxTermsPerStatement products; nothing when terms is empty).  Counts
+  /// len(terms) multiplications and additions.
+  void add_sum(Unit& u, const std::string& indent, const std::string& target, const std::vector<Term>& terms);
+
   /// Functions of at most kMaxStatementsPerFunction statements, and a driver
   /// `name(params)` calling them in order with `args`.  With `checked`, the
   /// parts return int (non-zero: stop) and the driver forwards it.  `doc` is

@@ -552,22 +552,10 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
       }
       return terms;
     };
-    // Adds the products to the dense part: "W[x] += sum;" (no sum written
-    // when there is nothing outside it).
-    auto accumulate = [&](const std::string& target, const std::vector<Term>& terms) {
-      for (std::size_t from = 0; from < terms.size(); from += kMaxTermsPerStatement) {
-        const std::size_t to = std::min(terms.size(), from + kMaxTermsPerStatement);
-        std::string sum;
-        for (std::size_t k = from; k < to; ++k) sum += (k > from ? " + " : "") + terms[k].a + " * " + terms[k].b;
-        u.lines.push_back(target + " += " + sum + ";");
-        ++u.statements;
-      }
-      k33.ops.mul += static_cast<long long>(terms.size());
-      k33.ops.add += static_cast<long long>(terms.size());
-    };
     if (dense_schur) {
-      accumulate(fmt::format("W[{}]", sp.position(j, j)), entry(j));
-      for (int r : sp.pattern[j]) accumulate(fmt::format("W[{}]", sp.position(r, j)), entry(r));
+      // The products outside the dense part, added to it.
+      k33.add_sum(u, "", fmt::format("W[{}]", sp.position(j, j)), entry(j));
+      for (int r : sp.pattern[j]) k33.add_sum(u, "", fmt::format("W[{}]", sp.position(r, j)), entry(r));
       if (u.statements == 0) k33.units.pop_back();  // nothing outside the dense part
       continue;
     }
