@@ -5,8 +5,9 @@
 // --benchmark_enable_random_interleaving=true and repetitions (as for
 // docs/benchmarks.md, run 3): the sizes then run interleaved in random order,
 // so a drift of the machine's clock hits every size alike and the ratios
-// between sizes are meaningful even where the absolute times wander.  Accuracy of the same solvers on the same kind of states:
-// the err counters of bench_<model> (docs/benchmarks.md).
+// between sizes are meaningful even where the absolute times wander.
+// Accuracy of the same solvers on the same kind of states: the err counters
+// of bench_<model> (docs/benchmarks.md).
 //
 // Each benchmark cycles through 16 seeded random states (q, v, tau uniform in
 // [-1, 1]; quaternions are normalized by the solver), as bench_<model> does.
