@@ -1,10 +1,13 @@
 // make_random_model: write a random URDF for benchmarks.
 //
-//   make_random_model tree  --seed S --bodies N [--max-depth D] [--floating] -o FILE.urdf
+//   make_random_model tree  --seed S --bodies N [--max-depth D] [--floating]
+//                           [--mechanism-bodies B] -o FILE.urdf
 //   make_random_model chain --seed S --bodies N -o FILE.urdf
 //   make_random_model train --vehicles K [--vehicle V.urdf --vehicle-cuts V.cuts.xml] -o FILE.urdf
 //
-// "chain" makes a serial revolute chain of N joints.  "-o -" writes to stdout.
+// "chain" makes a serial revolute chain of N joints.  "--mechanism-bodies B"
+// makes the tree a scene of many small mechanisms of B bodies each, all on
+// the world (RandomTreeOptions::mechanism_bodies).  "-o -" writes to stdout.
 // "train" makes K copies of a vehicle (default: models/hmmwv14.urdf and its
 // cuts), hitched by spherical cut joints (random_model.hpp, vehicle_train);
 // it writes FILE.urdf and the cuts beside it, FILE.cuts.xml.
@@ -25,7 +28,8 @@ namespace {
 [[noreturn]] void usage(const char* msg) {
   if (msg) std::fprintf(stderr, "make_random_model: %s\n", msg);
   std::fprintf(stderr,
-               "usage: make_random_model tree|chain --seed S --bodies N [--max-depth D] [--floating] -o FILE.urdf\n"
+               "usage: make_random_model tree|chain --seed S --bodies N [--max-depth D] [--floating]\n"
+               "                         [--mechanism-bodies B] -o FILE.urdf\n"
                "       make_random_model train --vehicles K [--vehicle V.urdf --vehicle-cuts V.cuts.xml] -o FILE.urdf\n");
   std::exit(msg ? 2 : 0);
 }
@@ -122,6 +126,8 @@ int main(int argc, char** argv) {
       options.max_depth = static_cast<int>(parse_int("--max-depth", value()));
     } else if (a == "--floating") {
       options.floating_base = true;
+    } else if (a == "--mechanism-bodies") {
+      options.mechanism_bodies = static_cast<int>(parse_int("--mechanism-bodies", value()));
     } else if (a == "-o") {
       output = value();
     } else if (a == "--help" || a == "-h") {
@@ -132,8 +138,8 @@ int main(int argc, char** argv) {
   }
   if (!have_bodies) usage("--bodies is required");
   if (output.empty()) usage("-o FILE is required");
-  if (kind == "chain" && (options.floating_base || options.max_depth != 0))
-    usage("--floating and --max-depth apply to 'tree' only");
+  if (kind == "chain" && (options.floating_base || options.max_depth != 0 || options.mechanism_bodies != 0))
+    usage("--floating, --max-depth and --mechanism-bodies apply to 'tree' only");
 
   std::string text;
   try {

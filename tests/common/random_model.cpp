@@ -154,6 +154,9 @@ std::string random_tree_urdf(const RandomTreeOptions& o) {
   if (!(o.mass_ratio >= 1.0)) throw std::invalid_argument("random_tree_urdf: mass_ratio must be >= 1");
   if (o.floating_base && o.max_depth == 1 && o.num_bodies > 1)
     throw std::invalid_argument("random_tree_urdf: a floating base with max_depth 1 allows one body only");
+  if (o.mechanism_bodies < 0) throw std::invalid_argument("random_tree_urdf: mechanism_bodies must be >= 0");
+  if (o.mechanism_bodies > 0 && o.floating_base)
+    throw std::invalid_argument("random_tree_urdf: mechanism_bodies and floating_base do not go together");
   const std::array<std::pair<Type, double>, 6> weights = {{{Type::Revolute, o.p_revolute},
                                                            {Type::Continuous, o.p_continuous},
                                                            {Type::Prismatic, o.p_prismatic},
@@ -171,7 +174,10 @@ std::string random_tree_urdf(const RandomTreeOptions& o) {
   const std::string robot = "random_" + std::to_string(o.seed) + "_" + std::to_string(o.num_bodies);
   std::string out = header(robot, "random tree, seed " + std::to_string(o.seed) + ", " +
                                       std::to_string(o.num_bodies) + " bodies, max depth " +
-                                      std::to_string(o.max_depth) + (o.floating_base ? ", floating base" : ""));
+                                      std::to_string(o.max_depth) + (o.floating_base ? ", floating base" : "") +
+                                      (o.mechanism_bodies > 0
+                                           ? ", mechanisms of " + std::to_string(o.mechanism_bodies) + " bodies"
+                                           : std::string()));
   std::vector<int> depth = {0};  // index 0: world
   std::vector<std::string> names = {"world"};
   std::vector<int> candidates;
@@ -180,8 +186,17 @@ std::string random_tree_urdf(const RandomTreeOptions& o) {
     Type type = Type::Floating;
     if (!(o.floating_base && i == 1)) {
       candidates.clear();
-      for (int k = (o.floating_base ? 1 : 0); k < i; ++k)
-        if (o.max_depth == 0 || depth[k] < o.max_depth) candidates.push_back(k);
+      if (o.mechanism_bodies > 0) {
+        // A scene: the first body of each group starts a new mechanism on
+        // the world; the others attach within their own group.
+        const int first = 1 + (i - 1) / o.mechanism_bodies * o.mechanism_bodies;
+        if (i == first) candidates.push_back(0);
+        for (int k = first; k < i; ++k)
+          if (o.max_depth == 0 || depth[k] < o.max_depth) candidates.push_back(k);
+      } else {
+        for (int k = (o.floating_base ? 1 : 0); k < i; ++k)
+          if (o.max_depth == 0 || depth[k] < o.max_depth) candidates.push_back(k);
+      }
       parent = candidates[rng.index(static_cast<int>(candidates.size()))];
       double r = rng.uniform() * total;
       for (const auto& [t, w] : weights)  // fallback against rounding: last type with weight

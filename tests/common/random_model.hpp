@@ -23,6 +23,15 @@ struct RandomTreeOptions {
   /// Body 1 hangs on a floating joint from "world"; no other body attaches to
   /// the world.
   bool floating_base = false;
+  /// 0: one random tree.  B > 0: a scene of many small mechanisms.  The
+  /// bodies come in consecutive groups of B (the last group may be smaller);
+  /// each group is one mechanism, whose first body attaches to "world" and
+  /// every other body to a uniformly drawn earlier body of the same group
+  /// whose depth is < max_depth.  Every mechanism is then drawn from the same
+  /// distribution, whatever num_bodies is, so the work per dof (the depth of
+  /// the dofs, the entries of L) does not grow with the size of the scene.
+  /// Not with floating_base.
+  int mechanism_bodies = 0;
   /// Joint type weights (normalized by their sum) for every joint except the
   /// floating base's.
   double p_revolute = 0.45, p_continuous = 0.1, p_prismatic = 0.15, p_ball = 0.2,

@@ -256,6 +256,47 @@ TEST(RandomModel, DepthBoundRespected) {
   EXPECT_GT(deepest, 3);
 }
 
+// A scene of mechanisms: every group of B consecutive bodies is one
+// mechanism hanging from the world, within the depth bound, and the scene's
+// shape statistics do not depend on its size (the same groups, drawn the
+// same way, come first in a larger scene).
+TEST(RandomModel, SceneOfMechanisms) {
+  for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+    RandomTreeOptions o;
+    o.seed = seed;
+    o.num_bodies = 50;
+    o.max_depth = 3;
+    o.mechanism_bodies = 7;
+    const Parsed p = parse(random_tree_urdf(o));
+    std::map<std::string, std::string> parent_of;
+    for (const auto& j : p.joints) parent_of[j.child] = j.parent;
+    int on_world = 0;
+    for (int i = 1; i <= o.num_bodies; ++i) {
+      const std::string body = "body_" + std::to_string(i);
+      const int first = 1 + (i - 1) / 7 * 7;
+      std::string top = body;  // the body of this mechanism that hangs from the world
+      while (parent_of.at(top) != "world") top = parent_of.at(top);
+      EXPECT_EQ(top, "body_" + std::to_string(first)) << "seed " << seed << ", " << body;
+      EXPECT_LE(p.depth.at(body), 3) << "seed " << seed << ", " << body;
+      on_world += parent_of.at(body) == "world";
+    }
+    EXPECT_EQ(on_world, 8) << "seed " << seed;  // ceil(50 / 7) mechanisms
+  }
+  // The mechanisms of a small scene are drawn exactly as the first ones of a
+  // larger scene with the same seed.
+  RandomTreeOptions small, large;
+  small.num_bodies = 40;
+  large.num_bodies = 400;
+  small.max_depth = large.max_depth = 8;
+  small.mechanism_bodies = large.mechanism_bodies = 20;
+  const std::string a = random_tree_urdf(small), b = random_tree_urdf(large);
+  const std::string::size_type joint_41 = b.find("<joint name=\"joint_41\"");
+  ASSERT_NE(joint_41, std::string::npos);
+  const std::string::size_type a_start = a.find("  <joint"), b_start = b.find("  <joint");
+  const std::string::size_type b_end = b.rfind('\n', joint_41) + 1;  // the start of joint_41's line
+  EXPECT_EQ(a.substr(a_start, a.find("</robot>") - a_start), b.substr(b_start, b_end - b_start));
+}
+
 TEST(RandomModel, WellFormedTypesAxesInertias) {
   std::map<std::string, int> seen;
   for (std::uint64_t seed = 1; seed <= 20; ++seed) {
@@ -326,6 +367,12 @@ TEST(RandomModel, BadOptionsThrow) {
   o.p_revolute = o.p_continuous = o.p_prismatic = o.p_ball = o.p_planar = o.p_fixed = 0;
   EXPECT_THROW(random_tree_urdf(o), std::invalid_argument);
   EXPECT_THROW(chain_urdf(0, 1), std::invalid_argument);
+  o = RandomTreeOptions{};
+  o.mechanism_bodies = -1;
+  EXPECT_THROW(random_tree_urdf(o), std::invalid_argument);
+  o.mechanism_bodies = 5;
+  o.floating_base = true;
+  EXPECT_THROW(random_tree_urdf(o), std::invalid_argument);
 }
 
 // add_floating_base: jr_world becomes the root, with one floating joint to the
