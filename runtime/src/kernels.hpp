@@ -23,4 +23,58 @@ inline void subtract_scaled(double* __restrict y, const double* __restrict x, do
   if (i < n) y[i] -= x[i] * f;
 }
 
+/// The update of Step 1 (eq. 18 with Lemma 2, right-looking) that column j
+/// makes to the columns of its n ancestors s_0 = s, s_1 = parent[s_0], ...:
+///
+///     L[s_a, s_b] -= col[b] * f_a   for 0 <= a <= b < n,
+///
+/// where col[0, n) are column j's ancestor rows and f_a = col[a] (LLT, col
+/// already scaled) or col[a] * scale (kScaled: LDLT, col not yet scaled).
+/// Column s_a stores rows s_a, s_{a+1}, ... contiguously from start[s_a], so
+/// row s_b sits at start[s_a] + (b - a).
+///
+/// Short columns are the common case in trees (a few ancestors each), and a
+/// loop over a length that changes from call to call costs a mispredicted
+/// branch per call.  Lengths up to kMaxFixedAncestors therefore go through a
+/// fully unrolled body for that exact length (one indirect jump per column);
+/// the arithmetic, and its order for every entry of L, is that of the loops.
+inline constexpr std::int32_t kMaxFixedAncestors = 16;
+
+template <int P, bool kScaled>
+inline void update_ancestors_fixed(double* L, const std::int32_t* start, const std::int32_t* parent, std::int32_t s,
+                                   const double* col, double scale) {
+  double c[P];
+  double* y[P];
+#pragma GCC unroll 16
+  for (int a = 0; a < P; ++a) {
+    c[a] = col[a];
+    y[a] = L + start[s];
+    s = parent[s];
+  }
+#pragma GCC unroll 16
+  for (int a = 0; a < P; ++a) {
+    const double f = kScaled ? c[a] * scale : c[a];
+#pragma GCC unroll 16
+    for (int b = a; b < P; ++b) y[a][b - a] -= c[b] * f;
+  }
+}
+
+template <bool kScaled>
+inline void update_ancestors(double* L, const std::int32_t* start, const std::int32_t* parent, std::int32_t s,
+                             const double* col, double scale, std::int32_t n) {
+  switch (n) {
+    case 0: return;
+#define JR_FIXED_CASE(P) \
+  case P: update_ancestors_fixed<P, kScaled>(L, start, parent, s, col, scale); return;
+    JR_FIXED_CASE(1) JR_FIXED_CASE(2) JR_FIXED_CASE(3) JR_FIXED_CASE(4)
+    JR_FIXED_CASE(5) JR_FIXED_CASE(6) JR_FIXED_CASE(7) JR_FIXED_CASE(8)
+    JR_FIXED_CASE(9) JR_FIXED_CASE(10) JR_FIXED_CASE(11) JR_FIXED_CASE(12)
+    JR_FIXED_CASE(13) JR_FIXED_CASE(14) JR_FIXED_CASE(15) JR_FIXED_CASE(16)
+#undef JR_FIXED_CASE
+    default:
+      for (std::int32_t a = 0; a < n; ++a, s = parent[s])
+        subtract_scaled(L + start[s], col + a, kScaled ? col[a] * scale : col[a], n - a);
+  }
+}
+
 }  // namespace jr::detail

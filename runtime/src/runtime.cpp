@@ -680,12 +680,9 @@ std::int32_t factor_packed(const Model& model, double* L, double* Dinv, bool ldl
     if (ldlt) {
       const double dinv = 1.0 / d;
       Dinv[j] = dinv;
-      // Update ancestor columns with w = L[r, j] (unscaled) then scale.
-      std::int32_t s = parent[j];
-      for (std::int32_t a = 0; a < len - 1; ++a, s = parent[s]) {
-        const double f = col[a] * dinv;  // L[s, j] after scaling
-        detail::subtract_scaled(L + start[s], col + a, f, len - 1 - a);
-      }
+      // Update ancestor columns with w = L[r, j] (unscaled) times L[s, j]
+      // = w[s] * dinv, then scale.
+      detail::update_ancestors<true>(L, start, parent, parent[j], col, dinv, len - 1);
       for (std::int32_t a = 0; a < len - 1; ++a) col[a] *= dinv;
     } else {
       const double l = std::sqrt(d);
@@ -693,10 +690,7 @@ std::int32_t factor_packed(const Model& model, double* L, double* Dinv, bool ldl
       const double linv = 1.0 / l;
       Dinv[j] = linv;
       for (std::int32_t a = 0; a < len - 1; ++a) col[a] *= linv;
-      std::int32_t s = parent[j];
-      for (std::int32_t a = 0; a < len - 1; ++a, s = parent[s]) {
-        detail::subtract_scaled(L + start[s], col + a, col[a], len - 1 - a);
-      }
+      detail::update_ancestors<false>(L, start, parent, parent[j], col, 1.0, len - 1);
     }
   }
   return -1;

@@ -32,10 +32,7 @@ bool factor_column(const Model& model, std::int32_t j, double* L, double* Dinv, 
   const double linv = 1.0 / l;
   Dinv[j] = linv;
   for (std::int32_t a = 0; a < len - 1; ++a) col[a] *= linv;
-  std::int32_t s = parent[j];
-  for (std::int32_t a = 0; a < len - 1; ++a, s = parent[s]) {
-    detail::subtract_scaled(L + start[s], col + a, col[a], len - 1 - a);
-  }
+  detail::update_ancestors<false>(L, start, parent, parent[j], col, 1.0, len - 1);
   return true;
 }
 
