@@ -397,7 +397,7 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
       tree_only && (options.threads >= 2 || (options.threads == 0 && t.nv >= kMinParallelDofs));
   const Shape shape = parallel                ? Shape::kParallel
                       : !supernodes.empty()   ? Shape::kSupernodal
-                      : products <= kMaxUnrolledProducts ? Shape::kUnrolled
+                      : products <= unroll_limit() ? Shape::kUnrolled
                                                           : Shape::kTable;
   const bool unrolled = shape == Shape::kUnrolled;
   // Small models also get Step 1 reading the user's dense M directly
@@ -502,10 +502,11 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
     parallel_steps(t, options, k1.ops, k2.ops, k4.ops, v);
   } else if (!unrolled) {
     const std::string why = fmt::format(
-        "Unrolled, Step 1 alone would hold {} products (more than {}), too large to\n"
-        "compile quickly: the runtime's loops over the same packed layout do the\n"
-        "same arithmetic (Lemma 2: no fill-in; only ancestor rows are touched).",
-        products, kMaxUnrolledProducts);
+        "Unrolled, Step 1 alone would hold {} products (more than {}): code that\n"
+        "large outgrows the instruction caches and runs slower than the runtime's\n"
+        "loops over the same packed layout, which do the same arithmetic (Lemma 2:\n"
+        "no fill-in; only ancestor rows are touched).",
+        products, unroll_limit());
     const char* flag = ldlt ? "true" : "false";
     v["step1"] = fmt::format(
         "// ---- Step 1: factor {} in place (packed), eq. (25)-(26), table-driven. ----\n{}\n"

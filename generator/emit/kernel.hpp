@@ -15,13 +15,21 @@ namespace jrgen::emit {
 // never sees one giant basic block (compile time grows faster than linearly).
 inline constexpr std::size_t kMaxStatementsPerFunction = 4000;
 // Models whose unrolled Step 1 would hold more products than this get the
-// runtime's table-driven loops for Steps 1, 2 and 4 instead.  Chosen by
-// measurement (docs/report.md, 2026-11-22): the unrolled code outgrows the
-// instruction caches, and at about 50 000 products (tree_1000 of the report,
-// 1013 dofs) it is no faster than the same arithmetic as loops (61.9 vs
-// 61.8 us), while it still is below (tree_d4_1000, 21 600 products: 36.3 vs
-// 43.2 us); compile time grows with it (docs/benchmarks.md).
-inline constexpr long long kMaxUnrolledProducts = 50000;
+// runtime's table-driven loops for Steps 1, 2 and 4 instead: the unrolled
+// code outgrows the instruction caches, and compile time grows with it.
+// Chosen by measurement (docs/benchmarks.md, run 5: the generated Steps 1, 2,
+// 4 against the runtime's loops on the same packed M, in one process, on a
+// 32 KiB-L1i AMD machine): straight-line is 1.5-1.6x faster at 4 500-6 500
+// products (random trees of 300 dofs) and 1.4x at 15 200 (the 1000-dof
+// scene), the loops 1.06x faster at 16 600 (tree_d4_1000), 1.3x at 24 900
+// and 2.4x at 44 300 (tree_1000).  The earlier limit, 50 000, was the
+// break-even on another machine (2026-11-22), where tree_1000 ran both
+// shapes at the same speed; on this one it lost 2.4x there.
+inline constexpr long long kMaxUnrolledProducts = 16000;
+// Closed loops whose straight-line Step 3 would hold more products than this
+// get the runtime's table-driven Step 3 (docs/trains.md).  Not re-measured
+// with the limit above: it keeps the value both shared until run 5.
+inline constexpr long long kMaxUnrolledStep3Products = 50000;
 // Models whose unrolled Step 1 holds at most this many products also get a
 // second copy of it reading the user's dense M (solve_augmented), instead of
 // a gather pass before the factorization: small models, where that pass is

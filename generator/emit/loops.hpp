@@ -50,9 +50,14 @@ struct LoopCode {
 LoopCode emit_loops(const topology::Tree& tree, Method method, bool unrolled_gathers,
                     const std::string& name_space);
 
-/// kMaxUnrolledProducts, or (internal, for tests only: not part of the CLI)
+/// kMaxUnrolledStep3Products, or (internal, for tests only: not part of the CLI)
 /// the value of the environment variable JRGEN_STEP3_UNROLL_LIMIT when it is a
 /// non-negative integer; 0 forces the table-driven Step 3 on every model.
 long long step3_unroll_limit();
+
+/// The same for Steps 1, 2 and 4: kMaxUnrolledProducts, or the value of the
+/// internal, test-only environment variable JRGEN_UNROLL_LIMIT; 0 forces the
+/// runtime's table-driven Steps 1, 2, 4 on every model.
+long long unroll_limit();
 
 }  // namespace jrgen::emit
