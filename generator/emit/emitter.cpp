@@ -45,11 +45,46 @@ Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc,
     if (dense.empty()) return L(t, row, col);
     return fmt::format("{}[{}]", dense, t.dof_user[row] + static_cast<long long>(t.nv) * t.dof_user[col]);
   };
+  // Two neighbouring ancestor rows r = anc[p], r' = anc[p + 1] of column j
+  // are stored next to each other in column j and in every column i of
+  // F(j) (column i holds i's ancestors, nearest first, and those of j are a
+  // suffix of them): their two statements of eq. (26) become one on a pair
+  // of doubles (Kernel::update_pair, jrgen/simd.hpp).
+  auto pairable = [&](int r, int r2, int j, const std::vector<int>& dj) {
+    if (t.packed(r2, j) != t.packed(r, j) + 1) return false;
+    for (int i : dj)
+      if (t.packed(r2, i) != t.packed(r, i) + 1) return false;
+    return true;
+  };
+  auto pair = [&](int row, int col) { return fmt::format("jr::load2(L + {})", t.packed(row, col)); };
+  auto M_pair = [&](int r, int r2, int col) {
+    if (dense.empty()) return pair(r, col);
+    return fmt::format("jr::set2({}, {})", M(r, col), M(r2, col));
+  };
+  auto target = [&](int row, int col) { return fmt::format("L + {}", t.packed(row, col)); };
   Kernel k;
   for (int j = 0; j < t.nv; ++j) {
     Kernel::Unit& u = k.unit();
     const std::vector<int> anc = t.ancestors(j);
     const std::vector<int>& dj = desc[j];
+    // Rows of eq. (26) for anc[p] (and anc[p + 1] when they pair up), with
+    // the scalar factor of descendant number n given by `factor(n)`.
+    auto rows = [&](const auto& factor) {
+      for (std::size_t p = 0; p < anc.size();) {
+        const int r = anc[p];
+        if (p + 1 < anc.size() && pairable(r, anc[p + 1], j, dj)) {
+          std::vector<PairTerm> terms;
+          for (std::size_t n = 0; n < dj.size(); ++n) terms.push_back({factor(n), pair(r, dj[n])});
+          k.update_pair(u, "  ", target(r, j), M_pair(r, anc[p + 1], j), terms, fmt::format("Dinv[{}]", j));
+          p += 2;
+        } else {
+          std::vector<Term> terms;
+          for (std::size_t n = 0; n < dj.size(); ++n) terms.push_back({factor(n), L(t, r, dj[n])});
+          k.update(u, "  ", L(t, r, j), M(r, j), terms, fmt::format("Dinv[{}]", j));
+          p += 1;
+        }
+      }
+    };
     u.lines.push_back(fmt::format("// column {}: {}; {} descendant(s), {} ancestor row(s)", j,
                                   dof_label(t, j), dj.size(), anc.size()));
     u.lines.push_back("{");
@@ -68,11 +103,7 @@ Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc,
       k.ops.sqrt += 1;
       k.ops.div += 1;
       // eq. (26): L[k,j] = (M[k,j] - sum_i L[j,i] L[k,i]) / L[j,j]
-      for (int r : anc) {
-        std::vector<Term> terms;
-        for (int i : dj) terms.push_back({L(t, j, i), L(t, r, i)});
-        k.update(u, in, L(t, r, j), M(r, j), terms, fmt::format("Dinv[{}]", j));
-      }
+      rows([&](std::size_t n) { return L(t, j, dj[n]); });
     } else {
       // L D L^T: w_i = L[j,i] D[i]; D[j] = M[j,j] - sum_i w_i L[j,i];
       // L[k,j] = (M[k,j] - sum_i w_i L[k,i]) / D[j].
@@ -91,11 +122,7 @@ Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc,
       u.lines.push_back(in + fmt::format("Dinv[{}] = 1.0 / d;", j));
       u.statements += 3;
       k.ops.div += 1;
-      for (int r : anc) {
-        std::vector<Term> terms;
-        for (std::size_t n = 0; n < dj.size(); ++n) terms.push_back({fmt::format("w{}", n), L(t, r, dj[n])});
-        k.update(u, in, L(t, r, j), M(r, j), terms, fmt::format("Dinv[{}]", j));
-      }
+      rows([&](std::size_t n) { return fmt::format("w{}", n); });
     }
     u.lines.push_back("}");
   }

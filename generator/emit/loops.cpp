@@ -475,22 +475,47 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
       if (td.rows[i].empty()) continue;
       Kernel::Unit& u = k31.unit();
       u.lines.push_back(fmt::format("// row {} of T: {} ({} constraint rows)", i, dof_label(t, i), td.rows[i].size()));
-      for (int g : td.rows[i]) {
-        const Row& row = rows[g];
-        const topology::Cut& cut = t.cuts[row.cut];
+      // Entry (i, g): the descendants v of i on the paths of g's cut, and
+      // the packed Phiq entry (none at the common ancestors of k and l,
+      // where Phiq is exactly zero).
+      auto descendants = [&](int g) -> const std::vector<int>& {
+        return cdesc[rows[g].cut][dof_index(t.cuts[rows[g].cut], i)];
+      };
+      auto base_index = [&](int g) {
+        const topology::Cut& cut = t.cuts[rows[g].cut];
         const int idx = dof_index(cut, i);
-        std::vector<Term> terms;
-        for (int v : cdesc[row.cut][idx]) terms.push_back({L(t, i, v), Tr(v, g)});
-        const std::string target = Tr(i, g);
-        // Common ancestors of k and l: Phiq is exactly zero there.
-        const std::string base = idx < cut.num_distinct ? fmt::format("P[{}]", row.t_start + idx) : "";
-        if (terms.empty() && base.empty()) {  // (cannot happen: a common dof has descendants on the paths)
-          u.lines.push_back(target + " = 0.0;");
+        return idx < cut.num_distinct ? rows[g].t_start + idx : -1;
+      };
+      // Two neighbouring entries of row i of T whose sums run over the same
+      // descendants, each holding both rows next to each other, become one
+      // statement on a pair of doubles (Kernel::update_pair).
+      auto pairable = [&](int g, int g2) {
+        if (td.at(i, g2) != td.at(i, g) + 1 || (base_index(g) < 0) != (base_index(g2) < 0)) return false;
+        if (descendants(g) != descendants(g2)) return false;
+        for (int v : descendants(g))
+          if (td.at(v, g2) != td.at(v, g) + 1) return false;
+        return true;
+      };
+      const std::string scale = ldlt ? "" : fmt::format("Dinv[{}]", i);  // LDLT: unit diagonal
+      const std::vector<int>& gs = td.rows[i];
+      for (std::size_t p = 0; p < gs.size();) {
+        const int g = gs[p];
+        const int b = base_index(g);
+        if (descendants(g).empty() && b < 0) {  // (cannot happen: a common dof has descendants on the paths)
+          u.lines.push_back(Tr(i, g) + " = 0.0;");
           ++u.statements;
-        } else if (!ldlt) {
-          k31.update(u, "", target, base, terms, fmt::format("Dinv[{}]", i));
-        } else {  // unit diagonal
-          k31.update(u, "", target, base, terms, "");
+          p += 1;
+        } else if (p + 1 < gs.size() && pairable(g, gs[p + 1])) {
+          std::vector<PairTerm> terms;
+          for (int v : descendants(g)) terms.push_back({L(t, i, v), fmt::format("jr::load2(T + {})", td.at(v, g))});
+          const std::string base = b < 0 ? "" : fmt::format("jr::set2(P[{}], P[{}])", b, base_index(gs[p + 1]));
+          k31.update_pair(u, "", fmt::format("T + {}", td.at(i, g)), base, terms, scale);
+          p += 2;
+        } else {
+          std::vector<Term> terms;
+          for (int v : descendants(g)) terms.push_back({L(t, i, v), Tr(v, g)});
+          k31.update(u, "", Tr(i, g), b < 0 ? "" : fmt::format("P[{}]", b), terms, scale);
+          p += 1;
         }
       }
     }

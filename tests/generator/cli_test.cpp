@@ -769,11 +769,23 @@ Recount recount_step(const std::string& cpp, const std::string& step) {
     std::size_t k = i + 1;
     while (k < lines.size() && (lines[k].empty() || lines[k].rfind("//", 0) == 0)) ++k;
     if (k == lines.size() || !ends_with(lines[k], "{")) continue;
+    // Statements on pairs of doubles (jrgen/simd.hpp) do every operation
+    // twice, once per lane: "jr::store2(L + 54, (... ) * Dinv[6]);", and the
+    // partial sums "jr::v2d s = ...; s += ...;" before such a store.  The
+    // pointer offsets "L + 54" inside jr::load2()/jr::store2() are addresses,
+    // not arithmetic.
+    static const std::regex address(R"(jr::(load2|store2)\(\w+ \+ \d+)");
+    bool pair_sum = false;
     for (++k; k < lines.size() && lines[k] != "}"; ++k) {
       std::string line = lines[k];
       if (const std::size_t c = line.find("//"); c != std::string::npos) line.resize(c);
       if (count_dense_kernel(line, &rc)) continue;
       if (contains(line, "kPivotTolerance")) continue;
+      const bool opens_pair_sum = contains(line, "jr::v2d ");
+      const bool stores_pair = contains(line, "jr::store2(");
+      const long long lanes = opens_pair_sum || stores_pair || pair_sum ? 2 : 1;
+      pair_sum = (pair_sum || opens_pair_sum) && !stores_pair;
+      line = std::regex_replace(line, address, "jr::$1(p");
       for (std::size_t p = 0; p < line.size(); ++p) {
         if (line.compare(p, 10, "std::sqrt(") == 0) {
           ++rc.sqrt;
@@ -785,9 +797,9 @@ Recount recount_step(const std::string& cpp, const std::string& step) {
         const bool compound = p + 1 < line.size() && line[p + 1] == '=';
         const bool binary = p > 0 && line[p - 1] == ' ' && p + 1 < line.size() && line[p + 1] == ' ';
         if (!compound && !binary) continue;
-        if (ch == '+' || ch == '-') ++rc.add;
-        else if (ch == '*') ++rc.mul;
-        else ++rc.div;
+        if (ch == '+' || ch == '-') rc.add += lanes;
+        else if (ch == '*') rc.mul += lanes;
+        else rc.div += lanes;
       }
     }
     if (k < lines.size()) ++complete;

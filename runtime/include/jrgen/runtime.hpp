@@ -18,6 +18,8 @@
 #include <cstdint>
 #include <cstring>
 
+#include "jrgen/simd.hpp"
+
 namespace jr {
 
 /// Joint kinds of the spanning tree; every joint is "translate in the joint

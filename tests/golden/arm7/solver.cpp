@@ -140,12 +140,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[0])) return not_positive_definite(0, d);
     L[0] = std::sqrt(d);
     Dinv[0] = 1.0 / L[0];
-    L[1] *= Dinv[0];
-    L[2] *= Dinv[0];
-    L[3] *= Dinv[0];
-    L[4] *= Dinv[0];
-    L[5] *= Dinv[0];
-    L[6] *= Dinv[0];
+    jr::store2(L + 1, jr::load2(L + 1) * Dinv[0]);
+    jr::store2(L + 3, jr::load2(L + 3) * Dinv[0]);
+    jr::store2(L + 5, jr::load2(L + 5) * Dinv[0]);
   }
   // column 1: joint 'joint_6'; 1 descendant(s), 5 ancestor row(s)
   {
@@ -153,10 +150,8 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[7])) return not_positive_definite(1, d);
     L[7] = std::sqrt(d);
     Dinv[1] = 1.0 / L[7];
-    L[8] = (L[8] - L[1] * L[2]) * Dinv[1];
-    L[9] = (L[9] - L[1] * L[3]) * Dinv[1];
-    L[10] = (L[10] - L[1] * L[4]) * Dinv[1];
-    L[11] = (L[11] - L[1] * L[5]) * Dinv[1];
+    jr::store2(L + 8, (jr::load2(L + 8) - L[1] * jr::load2(L + 2)) * Dinv[1]);
+    jr::store2(L + 10, (jr::load2(L + 10) - L[1] * jr::load2(L + 4)) * Dinv[1]);
     L[12] = (L[12] - L[1] * L[6]) * Dinv[1];
   }
   // column 2: joint 'joint_5'; 2 descendant(s), 4 ancestor row(s)
@@ -165,10 +160,8 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[13])) return not_positive_definite(2, d);
     L[13] = std::sqrt(d);
     Dinv[2] = 1.0 / L[13];
-    L[14] = (L[14] - (L[2] * L[3] + L[8] * L[9])) * Dinv[2];
-    L[15] = (L[15] - (L[2] * L[4] + L[8] * L[10])) * Dinv[2];
-    L[16] = (L[16] - (L[2] * L[5] + L[8] * L[11])) * Dinv[2];
-    L[17] = (L[17] - (L[2] * L[6] + L[8] * L[12])) * Dinv[2];
+    jr::store2(L + 14, (jr::load2(L + 14) - (L[2] * jr::load2(L + 3) + L[8] * jr::load2(L + 9))) * Dinv[2]);
+    jr::store2(L + 16, (jr::load2(L + 16) - (L[2] * jr::load2(L + 5) + L[8] * jr::load2(L + 11))) * Dinv[2]);
   }
   // column 3: joint 'joint_4'; 3 descendant(s), 3 ancestor row(s)
   {
@@ -176,8 +169,7 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[18])) return not_positive_definite(3, d);
     L[18] = std::sqrt(d);
     Dinv[3] = 1.0 / L[18];
-    L[19] = (L[19] - (L[3] * L[4] + L[9] * L[10] + L[14] * L[15])) * Dinv[3];
-    L[20] = (L[20] - (L[3] * L[5] + L[9] * L[11] + L[14] * L[16])) * Dinv[3];
+    jr::store2(L + 19, (jr::load2(L + 19) - (L[3] * jr::load2(L + 4) + L[9] * jr::load2(L + 10) + L[14] * jr::load2(L + 15))) * Dinv[3]);
     L[21] = (L[21] - (L[3] * L[6] + L[9] * L[12] + L[14] * L[17])) * Dinv[3];
   }
   // column 4: joint 'joint_3'; 4 descendant(s), 2 ancestor row(s)
@@ -186,8 +178,7 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[22])) return not_positive_definite(4, d);
     L[22] = std::sqrt(d);
     Dinv[4] = 1.0 / L[22];
-    L[23] = (L[23] - (L[4] * L[5] + L[10] * L[11] + L[15] * L[16] + L[19] * L[20])) * Dinv[4];
-    L[24] = (L[24] - (L[4] * L[6] + L[10] * L[12] + L[15] * L[17] + L[19] * L[21])) * Dinv[4];
+    jr::store2(L + 23, (jr::load2(L + 23) - (L[4] * jr::load2(L + 5) + L[10] * jr::load2(L + 11) + L[15] * jr::load2(L + 16) + L[19] * jr::load2(L + 20))) * Dinv[4]);
   }
   // column 5: joint 'joint_2'; 5 descendant(s), 1 ancestor row(s)
   {
@@ -218,12 +209,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[48])) return not_positive_definite(0, d);
     L[0] = std::sqrt(d);
     Dinv[0] = 1.0 / L[0];
-    L[1] = M[47] * Dinv[0];
-    L[2] = M[46] * Dinv[0];
-    L[3] = M[45] * Dinv[0];
-    L[4] = M[44] * Dinv[0];
-    L[5] = M[43] * Dinv[0];
-    L[6] = M[42] * Dinv[0];
+    jr::store2(L + 1, jr::set2(M[47], M[46]) * Dinv[0]);
+    jr::store2(L + 3, jr::set2(M[45], M[44]) * Dinv[0]);
+    jr::store2(L + 5, jr::set2(M[43], M[42]) * Dinv[0]);
   }
   // column 1: joint 'joint_6'; 1 descendant(s), 5 ancestor row(s)
   {
@@ -231,10 +219,8 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[40])) return not_positive_definite(1, d);
     L[7] = std::sqrt(d);
     Dinv[1] = 1.0 / L[7];
-    L[8] = (M[39] - L[1] * L[2]) * Dinv[1];
-    L[9] = (M[38] - L[1] * L[3]) * Dinv[1];
-    L[10] = (M[37] - L[1] * L[4]) * Dinv[1];
-    L[11] = (M[36] - L[1] * L[5]) * Dinv[1];
+    jr::store2(L + 8, (jr::set2(M[39], M[38]) - L[1] * jr::load2(L + 2)) * Dinv[1]);
+    jr::store2(L + 10, (jr::set2(M[37], M[36]) - L[1] * jr::load2(L + 4)) * Dinv[1]);
     L[12] = (M[35] - L[1] * L[6]) * Dinv[1];
   }
   // column 2: joint 'joint_5'; 2 descendant(s), 4 ancestor row(s)
@@ -243,10 +229,8 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[32])) return not_positive_definite(2, d);
     L[13] = std::sqrt(d);
     Dinv[2] = 1.0 / L[13];
-    L[14] = (M[31] - (L[2] * L[3] + L[8] * L[9])) * Dinv[2];
-    L[15] = (M[30] - (L[2] * L[4] + L[8] * L[10])) * Dinv[2];
-    L[16] = (M[29] - (L[2] * L[5] + L[8] * L[11])) * Dinv[2];
-    L[17] = (M[28] - (L[2] * L[6] + L[8] * L[12])) * Dinv[2];
+    jr::store2(L + 14, (jr::set2(M[31], M[30]) - (L[2] * jr::load2(L + 3) + L[8] * jr::load2(L + 9))) * Dinv[2]);
+    jr::store2(L + 16, (jr::set2(M[29], M[28]) - (L[2] * jr::load2(L + 5) + L[8] * jr::load2(L + 11))) * Dinv[2]);
   }
   // column 3: joint 'joint_4'; 3 descendant(s), 3 ancestor row(s)
   {
@@ -254,8 +238,7 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[24])) return not_positive_definite(3, d);
     L[18] = std::sqrt(d);
     Dinv[3] = 1.0 / L[18];
-    L[19] = (M[23] - (L[3] * L[4] + L[9] * L[10] + L[14] * L[15])) * Dinv[3];
-    L[20] = (M[22] - (L[3] * L[5] + L[9] * L[11] + L[14] * L[16])) * Dinv[3];
+    jr::store2(L + 19, (jr::set2(M[23], M[22]) - (L[3] * jr::load2(L + 4) + L[9] * jr::load2(L + 10) + L[14] * jr::load2(L + 15))) * Dinv[3]);
     L[21] = (M[21] - (L[3] * L[6] + L[9] * L[12] + L[14] * L[17])) * Dinv[3];
   }
   // column 4: joint 'joint_3'; 4 descendant(s), 2 ancestor row(s)
@@ -264,8 +247,7 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[16])) return not_positive_definite(4, d);
     L[22] = std::sqrt(d);
     Dinv[4] = 1.0 / L[22];
-    L[23] = (M[15] - (L[4] * L[5] + L[10] * L[11] + L[15] * L[16] + L[19] * L[20])) * Dinv[4];
-    L[24] = (M[14] - (L[4] * L[6] + L[10] * L[12] + L[15] * L[17] + L[19] * L[21])) * Dinv[4];
+    jr::store2(L + 23, (jr::set2(M[15], M[14]) - (L[4] * jr::load2(L + 5) + L[10] * jr::load2(L + 11) + L[15] * jr::load2(L + 16) + L[19] * jr::load2(L + 20))) * Dinv[4]);
   }
   // column 5: joint 'joint_2'; 5 descendant(s), 1 ancestor row(s)
   {

@@ -242,14 +242,10 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[0])) return not_positive_definite(0, d);
     L[0] = std::sqrt(d);
     Dinv[0] = 1.0 / L[0];
-    L[1] *= Dinv[0];
-    L[2] *= Dinv[0];
-    L[3] *= Dinv[0];
-    L[4] *= Dinv[0];
-    L[5] *= Dinv[0];
-    L[6] *= Dinv[0];
-    L[7] *= Dinv[0];
-    L[8] *= Dinv[0];
+    jr::store2(L + 1, jr::load2(L + 1) * Dinv[0]);
+    jr::store2(L + 3, jr::load2(L + 3) * Dinv[0]);
+    jr::store2(L + 5, jr::load2(L + 5) * Dinv[0]);
+    jr::store2(L + 7, jr::load2(L + 7) * Dinv[0]);
     L[9] *= Dinv[0];
   }
   // column 1: joint 'rf_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
@@ -258,14 +254,10 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[10])) return not_positive_definite(1, d);
     L[10] = std::sqrt(d);
     Dinv[1] = 1.0 / L[10];
-    L[11] = (L[11] - L[1] * L[2]) * Dinv[1];
-    L[12] = (L[12] - L[1] * L[3]) * Dinv[1];
-    L[13] = (L[13] - L[1] * L[4]) * Dinv[1];
-    L[14] = (L[14] - L[1] * L[5]) * Dinv[1];
-    L[15] = (L[15] - L[1] * L[6]) * Dinv[1];
-    L[16] = (L[16] - L[1] * L[7]) * Dinv[1];
-    L[17] = (L[17] - L[1] * L[8]) * Dinv[1];
-    L[18] = (L[18] - L[1] * L[9]) * Dinv[1];
+    jr::store2(L + 11, (jr::load2(L + 11) - L[1] * jr::load2(L + 2)) * Dinv[1]);
+    jr::store2(L + 13, (jr::load2(L + 13) - L[1] * jr::load2(L + 4)) * Dinv[1]);
+    jr::store2(L + 15, (jr::load2(L + 15) - L[1] * jr::load2(L + 6)) * Dinv[1]);
+    jr::store2(L + 17, (jr::load2(L + 17) - L[1] * jr::load2(L + 8)) * Dinv[1]);
   }
   // column 2: joint 'rf_upper_ball' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
   {
@@ -273,12 +265,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[19])) return not_positive_definite(2, d);
     L[19] = std::sqrt(d);
     Dinv[2] = 1.0 / L[19];
-    L[20] = (L[20] - (L[2] * L[3] + L[11] * L[12])) * Dinv[2];
-    L[21] = (L[21] - (L[2] * L[4] + L[11] * L[13])) * Dinv[2];
-    L[22] = (L[22] - (L[2] * L[5] + L[11] * L[14])) * Dinv[2];
-    L[23] = (L[23] - (L[2] * L[6] + L[11] * L[15])) * Dinv[2];
-    L[24] = (L[24] - (L[2] * L[7] + L[11] * L[16])) * Dinv[2];
-    L[25] = (L[25] - (L[2] * L[8] + L[11] * L[17])) * Dinv[2];
+    jr::store2(L + 20, (jr::load2(L + 20) - (L[2] * jr::load2(L + 3) + L[11] * jr::load2(L + 12))) * Dinv[2]);
+    jr::store2(L + 22, (jr::load2(L + 22) - (L[2] * jr::load2(L + 5) + L[11] * jr::load2(L + 14))) * Dinv[2]);
+    jr::store2(L + 24, (jr::load2(L + 24) - (L[2] * jr::load2(L + 7) + L[11] * jr::load2(L + 16))) * Dinv[2]);
     L[26] = (L[26] - (L[2] * L[9] + L[11] * L[18])) * Dinv[2];
   }
   // column 3: joint 'rf_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
@@ -287,12 +276,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[27])) return not_positive_definite(3, d);
     L[27] = std::sqrt(d);
     Dinv[3] = 1.0 / L[27];
-    L[28] = (L[28] - (L[3] * L[4] + L[12] * L[13] + L[20] * L[21])) * Dinv[3];
-    L[29] = (L[29] - (L[3] * L[5] + L[12] * L[14] + L[20] * L[22])) * Dinv[3];
-    L[30] = (L[30] - (L[3] * L[6] + L[12] * L[15] + L[20] * L[23])) * Dinv[3];
-    L[31] = (L[31] - (L[3] * L[7] + L[12] * L[16] + L[20] * L[24])) * Dinv[3];
-    L[32] = (L[32] - (L[3] * L[8] + L[12] * L[17] + L[20] * L[25])) * Dinv[3];
-    L[33] = (L[33] - (L[3] * L[9] + L[12] * L[18] + L[20] * L[26])) * Dinv[3];
+    jr::store2(L + 28, (jr::load2(L + 28) - (L[3] * jr::load2(L + 4) + L[12] * jr::load2(L + 13) + L[20] * jr::load2(L + 21))) * Dinv[3]);
+    jr::store2(L + 30, (jr::load2(L + 30) - (L[3] * jr::load2(L + 6) + L[12] * jr::load2(L + 15) + L[20] * jr::load2(L + 23))) * Dinv[3]);
+    jr::store2(L + 32, (jr::load2(L + 32) - (L[3] * jr::load2(L + 8) + L[12] * jr::load2(L + 17) + L[20] * jr::load2(L + 25))) * Dinv[3]);
   }
   // column 4: joint 'lf_upper_ball' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
@@ -300,14 +286,10 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[34])) return not_positive_definite(4, d);
     L[34] = std::sqrt(d);
     Dinv[4] = 1.0 / L[34];
-    L[35] *= Dinv[4];
-    L[36] *= Dinv[4];
-    L[37] *= Dinv[4];
-    L[38] *= Dinv[4];
-    L[39] *= Dinv[4];
-    L[40] *= Dinv[4];
-    L[41] *= Dinv[4];
-    L[42] *= Dinv[4];
+    jr::store2(L + 35, jr::load2(L + 35) * Dinv[4]);
+    jr::store2(L + 37, jr::load2(L + 37) * Dinv[4]);
+    jr::store2(L + 39, jr::load2(L + 39) * Dinv[4]);
+    jr::store2(L + 41, jr::load2(L + 41) * Dinv[4]);
     L[43] *= Dinv[4];
   }
   // column 5: joint 'lf_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
@@ -316,14 +298,10 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[44])) return not_positive_definite(5, d);
     L[44] = std::sqrt(d);
     Dinv[5] = 1.0 / L[44];
-    L[45] = (L[45] - L[35] * L[36]) * Dinv[5];
-    L[46] = (L[46] - L[35] * L[37]) * Dinv[5];
-    L[47] = (L[47] - L[35] * L[38]) * Dinv[5];
-    L[48] = (L[48] - L[35] * L[39]) * Dinv[5];
-    L[49] = (L[49] - L[35] * L[40]) * Dinv[5];
-    L[50] = (L[50] - L[35] * L[41]) * Dinv[5];
-    L[51] = (L[51] - L[35] * L[42]) * Dinv[5];
-    L[52] = (L[52] - L[35] * L[43]) * Dinv[5];
+    jr::store2(L + 45, (jr::load2(L + 45) - L[35] * jr::load2(L + 36)) * Dinv[5]);
+    jr::store2(L + 47, (jr::load2(L + 47) - L[35] * jr::load2(L + 38)) * Dinv[5]);
+    jr::store2(L + 49, (jr::load2(L + 49) - L[35] * jr::load2(L + 40)) * Dinv[5]);
+    jr::store2(L + 51, (jr::load2(L + 51) - L[35] * jr::load2(L + 42)) * Dinv[5]);
   }
   // column 6: joint 'lf_upper_ball' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
   {
@@ -331,12 +309,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[53])) return not_positive_definite(6, d);
     L[53] = std::sqrt(d);
     Dinv[6] = 1.0 / L[53];
-    L[54] = (L[54] - (L[36] * L[37] + L[45] * L[46])) * Dinv[6];
-    L[55] = (L[55] - (L[36] * L[38] + L[45] * L[47])) * Dinv[6];
-    L[56] = (L[56] - (L[36] * L[39] + L[45] * L[48])) * Dinv[6];
-    L[57] = (L[57] - (L[36] * L[40] + L[45] * L[49])) * Dinv[6];
-    L[58] = (L[58] - (L[36] * L[41] + L[45] * L[50])) * Dinv[6];
-    L[59] = (L[59] - (L[36] * L[42] + L[45] * L[51])) * Dinv[6];
+    jr::store2(L + 54, (jr::load2(L + 54) - (L[36] * jr::load2(L + 37) + L[45] * jr::load2(L + 46))) * Dinv[6]);
+    jr::store2(L + 56, (jr::load2(L + 56) - (L[36] * jr::load2(L + 39) + L[45] * jr::load2(L + 48))) * Dinv[6]);
+    jr::store2(L + 58, (jr::load2(L + 58) - (L[36] * jr::load2(L + 41) + L[45] * jr::load2(L + 50))) * Dinv[6]);
     L[60] = (L[60] - (L[36] * L[43] + L[45] * L[52])) * Dinv[6];
   }
   // column 7: joint 'lf_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
@@ -345,12 +320,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[61])) return not_positive_definite(7, d);
     L[61] = std::sqrt(d);
     Dinv[7] = 1.0 / L[61];
-    L[62] = (L[62] - (L[37] * L[38] + L[46] * L[47] + L[54] * L[55])) * Dinv[7];
-    L[63] = (L[63] - (L[37] * L[39] + L[46] * L[48] + L[54] * L[56])) * Dinv[7];
-    L[64] = (L[64] - (L[37] * L[40] + L[46] * L[49] + L[54] * L[57])) * Dinv[7];
-    L[65] = (L[65] - (L[37] * L[41] + L[46] * L[50] + L[54] * L[58])) * Dinv[7];
-    L[66] = (L[66] - (L[37] * L[42] + L[46] * L[51] + L[54] * L[59])) * Dinv[7];
-    L[67] = (L[67] - (L[37] * L[43] + L[46] * L[52] + L[54] * L[60])) * Dinv[7];
+    jr::store2(L + 62, (jr::load2(L + 62) - (L[37] * jr::load2(L + 38) + L[46] * jr::load2(L + 47) + L[54] * jr::load2(L + 55))) * Dinv[7]);
+    jr::store2(L + 64, (jr::load2(L + 64) - (L[37] * jr::load2(L + 40) + L[46] * jr::load2(L + 49) + L[54] * jr::load2(L + 57))) * Dinv[7]);
+    jr::store2(L + 66, (jr::load2(L + 66) - (L[37] * jr::load2(L + 42) + L[46] * jr::load2(L + 51) + L[54] * jr::load2(L + 59))) * Dinv[7]);
   }
   // column 8: joint 'rr_upper_ball' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
@@ -358,14 +330,10 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[68])) return not_positive_definite(8, d);
     L[68] = std::sqrt(d);
     Dinv[8] = 1.0 / L[68];
-    L[69] *= Dinv[8];
-    L[70] *= Dinv[8];
-    L[71] *= Dinv[8];
-    L[72] *= Dinv[8];
-    L[73] *= Dinv[8];
-    L[74] *= Dinv[8];
-    L[75] *= Dinv[8];
-    L[76] *= Dinv[8];
+    jr::store2(L + 69, jr::load2(L + 69) * Dinv[8]);
+    jr::store2(L + 71, jr::load2(L + 71) * Dinv[8]);
+    jr::store2(L + 73, jr::load2(L + 73) * Dinv[8]);
+    jr::store2(L + 75, jr::load2(L + 75) * Dinv[8]);
     L[77] *= Dinv[8];
   }
   // column 9: joint 'rr_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
@@ -374,14 +342,10 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[78])) return not_positive_definite(9, d);
     L[78] = std::sqrt(d);
     Dinv[9] = 1.0 / L[78];
-    L[79] = (L[79] - L[69] * L[70]) * Dinv[9];
-    L[80] = (L[80] - L[69] * L[71]) * Dinv[9];
-    L[81] = (L[81] - L[69] * L[72]) * Dinv[9];
-    L[82] = (L[82] - L[69] * L[73]) * Dinv[9];
-    L[83] = (L[83] - L[69] * L[74]) * Dinv[9];
-    L[84] = (L[84] - L[69] * L[75]) * Dinv[9];
-    L[85] = (L[85] - L[69] * L[76]) * Dinv[9];
-    L[86] = (L[86] - L[69] * L[77]) * Dinv[9];
+    jr::store2(L + 79, (jr::load2(L + 79) - L[69] * jr::load2(L + 70)) * Dinv[9]);
+    jr::store2(L + 81, (jr::load2(L + 81) - L[69] * jr::load2(L + 72)) * Dinv[9]);
+    jr::store2(L + 83, (jr::load2(L + 83) - L[69] * jr::load2(L + 74)) * Dinv[9]);
+    jr::store2(L + 85, (jr::load2(L + 85) - L[69] * jr::load2(L + 76)) * Dinv[9]);
   }
   // column 10: joint 'rr_upper_ball' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
   {
@@ -389,12 +353,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[87])) return not_positive_definite(10, d);
     L[87] = std::sqrt(d);
     Dinv[10] = 1.0 / L[87];
-    L[88] = (L[88] - (L[70] * L[71] + L[79] * L[80])) * Dinv[10];
-    L[89] = (L[89] - (L[70] * L[72] + L[79] * L[81])) * Dinv[10];
-    L[90] = (L[90] - (L[70] * L[73] + L[79] * L[82])) * Dinv[10];
-    L[91] = (L[91] - (L[70] * L[74] + L[79] * L[83])) * Dinv[10];
-    L[92] = (L[92] - (L[70] * L[75] + L[79] * L[84])) * Dinv[10];
-    L[93] = (L[93] - (L[70] * L[76] + L[79] * L[85])) * Dinv[10];
+    jr::store2(L + 88, (jr::load2(L + 88) - (L[70] * jr::load2(L + 71) + L[79] * jr::load2(L + 80))) * Dinv[10]);
+    jr::store2(L + 90, (jr::load2(L + 90) - (L[70] * jr::load2(L + 73) + L[79] * jr::load2(L + 82))) * Dinv[10]);
+    jr::store2(L + 92, (jr::load2(L + 92) - (L[70] * jr::load2(L + 75) + L[79] * jr::load2(L + 84))) * Dinv[10]);
     L[94] = (L[94] - (L[70] * L[77] + L[79] * L[86])) * Dinv[10];
   }
   // column 11: joint 'rr_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
@@ -403,12 +364,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[95])) return not_positive_definite(11, d);
     L[95] = std::sqrt(d);
     Dinv[11] = 1.0 / L[95];
-    L[96] = (L[96] - (L[71] * L[72] + L[80] * L[81] + L[88] * L[89])) * Dinv[11];
-    L[97] = (L[97] - (L[71] * L[73] + L[80] * L[82] + L[88] * L[90])) * Dinv[11];
-    L[98] = (L[98] - (L[71] * L[74] + L[80] * L[83] + L[88] * L[91])) * Dinv[11];
-    L[99] = (L[99] - (L[71] * L[75] + L[80] * L[84] + L[88] * L[92])) * Dinv[11];
-    L[100] = (L[100] - (L[71] * L[76] + L[80] * L[85] + L[88] * L[93])) * Dinv[11];
-    L[101] = (L[101] - (L[71] * L[77] + L[80] * L[86] + L[88] * L[94])) * Dinv[11];
+    jr::store2(L + 96, (jr::load2(L + 96) - (L[71] * jr::load2(L + 72) + L[80] * jr::load2(L + 81) + L[88] * jr::load2(L + 89))) * Dinv[11]);
+    jr::store2(L + 98, (jr::load2(L + 98) - (L[71] * jr::load2(L + 74) + L[80] * jr::load2(L + 83) + L[88] * jr::load2(L + 91))) * Dinv[11]);
+    jr::store2(L + 100, (jr::load2(L + 100) - (L[71] * jr::load2(L + 76) + L[80] * jr::load2(L + 85) + L[88] * jr::load2(L + 93))) * Dinv[11]);
   }
   // column 12: joint 'lr_upper_ball' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
@@ -416,14 +374,10 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[102])) return not_positive_definite(12, d);
     L[102] = std::sqrt(d);
     Dinv[12] = 1.0 / L[102];
-    L[103] *= Dinv[12];
-    L[104] *= Dinv[12];
-    L[105] *= Dinv[12];
-    L[106] *= Dinv[12];
-    L[107] *= Dinv[12];
-    L[108] *= Dinv[12];
-    L[109] *= Dinv[12];
-    L[110] *= Dinv[12];
+    jr::store2(L + 103, jr::load2(L + 103) * Dinv[12]);
+    jr::store2(L + 105, jr::load2(L + 105) * Dinv[12]);
+    jr::store2(L + 107, jr::load2(L + 107) * Dinv[12]);
+    jr::store2(L + 109, jr::load2(L + 109) * Dinv[12]);
     L[111] *= Dinv[12];
   }
   // column 13: joint 'lr_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
@@ -432,14 +386,10 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[112])) return not_positive_definite(13, d);
     L[112] = std::sqrt(d);
     Dinv[13] = 1.0 / L[112];
-    L[113] = (L[113] - L[103] * L[104]) * Dinv[13];
-    L[114] = (L[114] - L[103] * L[105]) * Dinv[13];
-    L[115] = (L[115] - L[103] * L[106]) * Dinv[13];
-    L[116] = (L[116] - L[103] * L[107]) * Dinv[13];
-    L[117] = (L[117] - L[103] * L[108]) * Dinv[13];
-    L[118] = (L[118] - L[103] * L[109]) * Dinv[13];
-    L[119] = (L[119] - L[103] * L[110]) * Dinv[13];
-    L[120] = (L[120] - L[103] * L[111]) * Dinv[13];
+    jr::store2(L + 113, (jr::load2(L + 113) - L[103] * jr::load2(L + 104)) * Dinv[13]);
+    jr::store2(L + 115, (jr::load2(L + 115) - L[103] * jr::load2(L + 106)) * Dinv[13]);
+    jr::store2(L + 117, (jr::load2(L + 117) - L[103] * jr::load2(L + 108)) * Dinv[13]);
+    jr::store2(L + 119, (jr::load2(L + 119) - L[103] * jr::load2(L + 110)) * Dinv[13]);
   }
   // column 14: joint 'lr_upper_ball' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
   {
@@ -447,12 +397,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[121])) return not_positive_definite(14, d);
     L[121] = std::sqrt(d);
     Dinv[14] = 1.0 / L[121];
-    L[122] = (L[122] - (L[104] * L[105] + L[113] * L[114])) * Dinv[14];
-    L[123] = (L[123] - (L[104] * L[106] + L[113] * L[115])) * Dinv[14];
-    L[124] = (L[124] - (L[104] * L[107] + L[113] * L[116])) * Dinv[14];
-    L[125] = (L[125] - (L[104] * L[108] + L[113] * L[117])) * Dinv[14];
-    L[126] = (L[126] - (L[104] * L[109] + L[113] * L[118])) * Dinv[14];
-    L[127] = (L[127] - (L[104] * L[110] + L[113] * L[119])) * Dinv[14];
+    jr::store2(L + 122, (jr::load2(L + 122) - (L[104] * jr::load2(L + 105) + L[113] * jr::load2(L + 114))) * Dinv[14]);
+    jr::store2(L + 124, (jr::load2(L + 124) - (L[104] * jr::load2(L + 107) + L[113] * jr::load2(L + 116))) * Dinv[14]);
+    jr::store2(L + 126, (jr::load2(L + 126) - (L[104] * jr::load2(L + 109) + L[113] * jr::load2(L + 118))) * Dinv[14]);
     L[128] = (L[128] - (L[104] * L[111] + L[113] * L[120])) * Dinv[14];
   }
   // column 15: joint 'lr_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
@@ -461,12 +408,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[129])) return not_positive_definite(15, d);
     L[129] = std::sqrt(d);
     Dinv[15] = 1.0 / L[129];
-    L[130] = (L[130] - (L[105] * L[106] + L[114] * L[115] + L[122] * L[123])) * Dinv[15];
-    L[131] = (L[131] - (L[105] * L[107] + L[114] * L[116] + L[122] * L[124])) * Dinv[15];
-    L[132] = (L[132] - (L[105] * L[108] + L[114] * L[117] + L[122] * L[125])) * Dinv[15];
-    L[133] = (L[133] - (L[105] * L[109] + L[114] * L[118] + L[122] * L[126])) * Dinv[15];
-    L[134] = (L[134] - (L[105] * L[110] + L[114] * L[119] + L[122] * L[127])) * Dinv[15];
-    L[135] = (L[135] - (L[105] * L[111] + L[114] * L[120] + L[122] * L[128])) * Dinv[15];
+    jr::store2(L + 130, (jr::load2(L + 130) - (L[105] * jr::load2(L + 106) + L[114] * jr::load2(L + 115) + L[122] * jr::load2(L + 123))) * Dinv[15]);
+    jr::store2(L + 132, (jr::load2(L + 132) - (L[105] * jr::load2(L + 108) + L[114] * jr::load2(L + 117) + L[122] * jr::load2(L + 125))) * Dinv[15]);
+    jr::store2(L + 134, (jr::load2(L + 134) - (L[105] * jr::load2(L + 110) + L[114] * jr::load2(L + 119) + L[122] * jr::load2(L + 127))) * Dinv[15]);
   }
   // column 16: joint 'rack_slide'; 0 descendant(s), 6 ancestor row(s)
   {
@@ -474,12 +418,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[136])) return not_positive_definite(16, d);
     L[136] = std::sqrt(d);
     Dinv[16] = 1.0 / L[136];
-    L[137] *= Dinv[16];
-    L[138] *= Dinv[16];
-    L[139] *= Dinv[16];
-    L[140] *= Dinv[16];
-    L[141] *= Dinv[16];
-    L[142] *= Dinv[16];
+    jr::store2(L + 137, jr::load2(L + 137) * Dinv[16]);
+    jr::store2(L + 139, jr::load2(L + 139) * Dinv[16]);
+    jr::store2(L + 141, jr::load2(L + 141) * Dinv[16]);
   }
   // column 17: joint 'rf_lower_pivot'; 0 descendant(s), 6 ancestor row(s)
   {
@@ -487,12 +428,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[143])) return not_positive_definite(17, d);
     L[143] = std::sqrt(d);
     Dinv[17] = 1.0 / L[143];
-    L[144] *= Dinv[17];
-    L[145] *= Dinv[17];
-    L[146] *= Dinv[17];
-    L[147] *= Dinv[17];
-    L[148] *= Dinv[17];
-    L[149] *= Dinv[17];
+    jr::store2(L + 144, jr::load2(L + 144) * Dinv[17]);
+    jr::store2(L + 146, jr::load2(L + 146) * Dinv[17]);
+    jr::store2(L + 148, jr::load2(L + 148) * Dinv[17]);
   }
   // column 18: joint 'lf_lower_pivot'; 0 descendant(s), 6 ancestor row(s)
   {
@@ -500,12 +438,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[150])) return not_positive_definite(18, d);
     L[150] = std::sqrt(d);
     Dinv[18] = 1.0 / L[150];
-    L[151] *= Dinv[18];
-    L[152] *= Dinv[18];
-    L[153] *= Dinv[18];
-    L[154] *= Dinv[18];
-    L[155] *= Dinv[18];
-    L[156] *= Dinv[18];
+    jr::store2(L + 151, jr::load2(L + 151) * Dinv[18]);
+    jr::store2(L + 153, jr::load2(L + 153) * Dinv[18]);
+    jr::store2(L + 155, jr::load2(L + 155) * Dinv[18]);
   }
   // column 19: joint 'rr_lower_pivot'; 0 descendant(s), 6 ancestor row(s)
   {
@@ -513,12 +448,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[157])) return not_positive_definite(19, d);
     L[157] = std::sqrt(d);
     Dinv[19] = 1.0 / L[157];
-    L[158] *= Dinv[19];
-    L[159] *= Dinv[19];
-    L[160] *= Dinv[19];
-    L[161] *= Dinv[19];
-    L[162] *= Dinv[19];
-    L[163] *= Dinv[19];
+    jr::store2(L + 158, jr::load2(L + 158) * Dinv[19]);
+    jr::store2(L + 160, jr::load2(L + 160) * Dinv[19]);
+    jr::store2(L + 162, jr::load2(L + 162) * Dinv[19]);
   }
   // column 20: joint 'lr_lower_pivot'; 0 descendant(s), 6 ancestor row(s)
   {
@@ -526,12 +458,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[164])) return not_positive_definite(20, d);
     L[164] = std::sqrt(d);
     Dinv[20] = 1.0 / L[164];
-    L[165] *= Dinv[20];
-    L[166] *= Dinv[20];
-    L[167] *= Dinv[20];
-    L[168] *= Dinv[20];
-    L[169] *= Dinv[20];
-    L[170] *= Dinv[20];
+    jr::store2(L + 165, jr::load2(L + 165) * Dinv[20]);
+    jr::store2(L + 167, jr::load2(L + 167) * Dinv[20]);
+    jr::store2(L + 169, jr::load2(L + 169) * Dinv[20]);
   }
   // column 21: joint 'chassis_floating' (coordinate 1 of 6); 21 descendant(s), 5 ancestor row(s)
   {
@@ -543,28 +472,16 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     L[171] = std::sqrt(d);
     Dinv[21] = 1.0 / L[171];
     {
-      double s = L[4] * L[5] + L[13] * L[14] + L[21] * L[22] + L[28] * L[29] + L[38] * L[39] + L[47] * L[48] + L[55] * L[56] + L[62] * L[63];
-      s += L[72] * L[73] + L[81] * L[82] + L[89] * L[90] + L[96] * L[97] + L[106] * L[107] + L[115] * L[116] + L[123] * L[124] + L[130] * L[131];
-      s += L[137] * L[138] + L[144] * L[145] + L[151] * L[152] + L[158] * L[159] + L[165] * L[166];
-      L[172] = (L[172] - s) * Dinv[21];
+      jr::v2d s = L[4] * jr::load2(L + 5) + L[13] * jr::load2(L + 14) + L[21] * jr::load2(L + 22) + L[28] * jr::load2(L + 29) + L[38] * jr::load2(L + 39) + L[47] * jr::load2(L + 48) + L[55] * jr::load2(L + 56) + L[62] * jr::load2(L + 63);
+      s += L[72] * jr::load2(L + 73) + L[81] * jr::load2(L + 82) + L[89] * jr::load2(L + 90) + L[96] * jr::load2(L + 97) + L[106] * jr::load2(L + 107) + L[115] * jr::load2(L + 116) + L[123] * jr::load2(L + 124) + L[130] * jr::load2(L + 131);
+      s += L[137] * jr::load2(L + 138) + L[144] * jr::load2(L + 145) + L[151] * jr::load2(L + 152) + L[158] * jr::load2(L + 159) + L[165] * jr::load2(L + 166);
+      jr::store2(L + 172, (jr::load2(L + 172) - s) * Dinv[21]);
     }
     {
-      double s = L[4] * L[6] + L[13] * L[15] + L[21] * L[23] + L[28] * L[30] + L[38] * L[40] + L[47] * L[49] + L[55] * L[57] + L[62] * L[64];
-      s += L[72] * L[74] + L[81] * L[83] + L[89] * L[91] + L[96] * L[98] + L[106] * L[108] + L[115] * L[117] + L[123] * L[125] + L[130] * L[132];
-      s += L[137] * L[139] + L[144] * L[146] + L[151] * L[153] + L[158] * L[160] + L[165] * L[167];
-      L[173] = (L[173] - s) * Dinv[21];
-    }
-    {
-      double s = L[4] * L[7] + L[13] * L[16] + L[21] * L[24] + L[28] * L[31] + L[38] * L[41] + L[47] * L[50] + L[55] * L[58] + L[62] * L[65];
-      s += L[72] * L[75] + L[81] * L[84] + L[89] * L[92] + L[96] * L[99] + L[106] * L[109] + L[115] * L[118] + L[123] * L[126] + L[130] * L[133];
-      s += L[137] * L[140] + L[144] * L[147] + L[151] * L[154] + L[158] * L[161] + L[165] * L[168];
-      L[174] = (L[174] - s) * Dinv[21];
-    }
-    {
-      double s = L[4] * L[8] + L[13] * L[17] + L[21] * L[25] + L[28] * L[32] + L[38] * L[42] + L[47] * L[51] + L[55] * L[59] + L[62] * L[66];
-      s += L[72] * L[76] + L[81] * L[85] + L[89] * L[93] + L[96] * L[100] + L[106] * L[110] + L[115] * L[119] + L[123] * L[127] + L[130] * L[134];
-      s += L[137] * L[141] + L[144] * L[148] + L[151] * L[155] + L[158] * L[162] + L[165] * L[169];
-      L[175] = (L[175] - s) * Dinv[21];
+      jr::v2d s = L[4] * jr::load2(L + 7) + L[13] * jr::load2(L + 16) + L[21] * jr::load2(L + 24) + L[28] * jr::load2(L + 31) + L[38] * jr::load2(L + 41) + L[47] * jr::load2(L + 50) + L[55] * jr::load2(L + 58) + L[62] * jr::load2(L + 65);
+      s += L[72] * jr::load2(L + 75) + L[81] * jr::load2(L + 84) + L[89] * jr::load2(L + 92) + L[96] * jr::load2(L + 99) + L[106] * jr::load2(L + 109) + L[115] * jr::load2(L + 118) + L[123] * jr::load2(L + 126) + L[130] * jr::load2(L + 133);
+      s += L[137] * jr::load2(L + 140) + L[144] * jr::load2(L + 147) + L[151] * jr::load2(L + 154) + L[158] * jr::load2(L + 161) + L[165] * jr::load2(L + 168);
+      jr::store2(L + 174, (jr::load2(L + 174) - s) * Dinv[21]);
     }
     {
       double s = L[4] * L[9] + L[13] * L[18] + L[21] * L[26] + L[28] * L[33] + L[38] * L[43] + L[47] * L[52] + L[55] * L[60] + L[62] * L[67];
@@ -583,28 +500,16 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     L[177] = std::sqrt(d);
     Dinv[22] = 1.0 / L[177];
     {
-      double s = L[5] * L[6] + L[14] * L[15] + L[22] * L[23] + L[29] * L[30] + L[39] * L[40] + L[48] * L[49] + L[56] * L[57] + L[63] * L[64];
-      s += L[73] * L[74] + L[82] * L[83] + L[90] * L[91] + L[97] * L[98] + L[107] * L[108] + L[116] * L[117] + L[124] * L[125] + L[131] * L[132];
-      s += L[138] * L[139] + L[145] * L[146] + L[152] * L[153] + L[159] * L[160] + L[166] * L[167] + L[172] * L[173];
-      L[178] = (L[178] - s) * Dinv[22];
+      jr::v2d s = L[5] * jr::load2(L + 6) + L[14] * jr::load2(L + 15) + L[22] * jr::load2(L + 23) + L[29] * jr::load2(L + 30) + L[39] * jr::load2(L + 40) + L[48] * jr::load2(L + 49) + L[56] * jr::load2(L + 57) + L[63] * jr::load2(L + 64);
+      s += L[73] * jr::load2(L + 74) + L[82] * jr::load2(L + 83) + L[90] * jr::load2(L + 91) + L[97] * jr::load2(L + 98) + L[107] * jr::load2(L + 108) + L[116] * jr::load2(L + 117) + L[124] * jr::load2(L + 125) + L[131] * jr::load2(L + 132);
+      s += L[138] * jr::load2(L + 139) + L[145] * jr::load2(L + 146) + L[152] * jr::load2(L + 153) + L[159] * jr::load2(L + 160) + L[166] * jr::load2(L + 167) + L[172] * jr::load2(L + 173);
+      jr::store2(L + 178, (jr::load2(L + 178) - s) * Dinv[22]);
     }
     {
-      double s = L[5] * L[7] + L[14] * L[16] + L[22] * L[24] + L[29] * L[31] + L[39] * L[41] + L[48] * L[50] + L[56] * L[58] + L[63] * L[65];
-      s += L[73] * L[75] + L[82] * L[84] + L[90] * L[92] + L[97] * L[99] + L[107] * L[109] + L[116] * L[118] + L[124] * L[126] + L[131] * L[133];
-      s += L[138] * L[140] + L[145] * L[147] + L[152] * L[154] + L[159] * L[161] + L[166] * L[168] + L[172] * L[174];
-      L[179] = (L[179] - s) * Dinv[22];
-    }
-    {
-      double s = L[5] * L[8] + L[14] * L[17] + L[22] * L[25] + L[29] * L[32] + L[39] * L[42] + L[48] * L[51] + L[56] * L[59] + L[63] * L[66];
-      s += L[73] * L[76] + L[82] * L[85] + L[90] * L[93] + L[97] * L[100] + L[107] * L[110] + L[116] * L[119] + L[124] * L[127] + L[131] * L[134];
-      s += L[138] * L[141] + L[145] * L[148] + L[152] * L[155] + L[159] * L[162] + L[166] * L[169] + L[172] * L[175];
-      L[180] = (L[180] - s) * Dinv[22];
-    }
-    {
-      double s = L[5] * L[9] + L[14] * L[18] + L[22] * L[26] + L[29] * L[33] + L[39] * L[43] + L[48] * L[52] + L[56] * L[60] + L[63] * L[67];
-      s += L[73] * L[77] + L[82] * L[86] + L[90] * L[94] + L[97] * L[101] + L[107] * L[111] + L[116] * L[120] + L[124] * L[128] + L[131] * L[135];
-      s += L[138] * L[142] + L[145] * L[149] + L[152] * L[156] + L[159] * L[163] + L[166] * L[170] + L[172] * L[176];
-      L[181] = (L[181] - s) * Dinv[22];
+      jr::v2d s = L[5] * jr::load2(L + 8) + L[14] * jr::load2(L + 17) + L[22] * jr::load2(L + 25) + L[29] * jr::load2(L + 32) + L[39] * jr::load2(L + 42) + L[48] * jr::load2(L + 51) + L[56] * jr::load2(L + 59) + L[63] * jr::load2(L + 66);
+      s += L[73] * jr::load2(L + 76) + L[82] * jr::load2(L + 85) + L[90] * jr::load2(L + 93) + L[97] * jr::load2(L + 100) + L[107] * jr::load2(L + 110) + L[116] * jr::load2(L + 119) + L[124] * jr::load2(L + 127) + L[131] * jr::load2(L + 134);
+      s += L[138] * jr::load2(L + 141) + L[145] * jr::load2(L + 148) + L[152] * jr::load2(L + 155) + L[159] * jr::load2(L + 162) + L[166] * jr::load2(L + 169) + L[172] * jr::load2(L + 175);
+      jr::store2(L + 180, (jr::load2(L + 180) - s) * Dinv[22]);
     }
   }
   // column 23: joint 'chassis_floating' (coordinate 3 of 6); 23 descendant(s), 3 ancestor row(s)
@@ -617,16 +522,10 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     L[182] = std::sqrt(d);
     Dinv[23] = 1.0 / L[182];
     {
-      double s = L[6] * L[7] + L[15] * L[16] + L[23] * L[24] + L[30] * L[31] + L[40] * L[41] + L[49] * L[50] + L[57] * L[58] + L[64] * L[65];
-      s += L[74] * L[75] + L[83] * L[84] + L[91] * L[92] + L[98] * L[99] + L[108] * L[109] + L[117] * L[118] + L[125] * L[126] + L[132] * L[133];
-      s += L[139] * L[140] + L[146] * L[147] + L[153] * L[154] + L[160] * L[161] + L[167] * L[168] + L[173] * L[174] + L[178] * L[179];
-      L[183] = (L[183] - s) * Dinv[23];
-    }
-    {
-      double s = L[6] * L[8] + L[15] * L[17] + L[23] * L[25] + L[30] * L[32] + L[40] * L[42] + L[49] * L[51] + L[57] * L[59] + L[64] * L[66];
-      s += L[74] * L[76] + L[83] * L[85] + L[91] * L[93] + L[98] * L[100] + L[108] * L[110] + L[117] * L[119] + L[125] * L[127] + L[132] * L[134];
-      s += L[139] * L[141] + L[146] * L[148] + L[153] * L[155] + L[160] * L[162] + L[167] * L[169] + L[173] * L[175] + L[178] * L[180];
-      L[184] = (L[184] - s) * Dinv[23];
+      jr::v2d s = L[6] * jr::load2(L + 7) + L[15] * jr::load2(L + 16) + L[23] * jr::load2(L + 24) + L[30] * jr::load2(L + 31) + L[40] * jr::load2(L + 41) + L[49] * jr::load2(L + 50) + L[57] * jr::load2(L + 58) + L[64] * jr::load2(L + 65);
+      s += L[74] * jr::load2(L + 75) + L[83] * jr::load2(L + 84) + L[91] * jr::load2(L + 92) + L[98] * jr::load2(L + 99) + L[108] * jr::load2(L + 109) + L[117] * jr::load2(L + 118) + L[125] * jr::load2(L + 126) + L[132] * jr::load2(L + 133);
+      s += L[139] * jr::load2(L + 140) + L[146] * jr::load2(L + 147) + L[153] * jr::load2(L + 154) + L[160] * jr::load2(L + 161) + L[167] * jr::load2(L + 168) + L[173] * jr::load2(L + 174) + L[178] * jr::load2(L + 179);
+      jr::store2(L + 183, (jr::load2(L + 183) - s) * Dinv[23]);
     }
     {
       double s = L[6] * L[9] + L[15] * L[18] + L[23] * L[26] + L[30] * L[33] + L[40] * L[43] + L[49] * L[52] + L[57] * L[60] + L[64] * L[67];
@@ -645,16 +544,10 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     L[186] = std::sqrt(d);
     Dinv[24] = 1.0 / L[186];
     {
-      double s = L[7] * L[8] + L[16] * L[17] + L[24] * L[25] + L[31] * L[32] + L[41] * L[42] + L[50] * L[51] + L[58] * L[59] + L[65] * L[66];
-      s += L[75] * L[76] + L[84] * L[85] + L[92] * L[93] + L[99] * L[100] + L[109] * L[110] + L[118] * L[119] + L[126] * L[127] + L[133] * L[134];
-      s += L[140] * L[141] + L[147] * L[148] + L[154] * L[155] + L[161] * L[162] + L[168] * L[169] + L[174] * L[175] + L[179] * L[180] + L[183] * L[184];
-      L[187] = (L[187] - s) * Dinv[24];
-    }
-    {
-      double s = L[7] * L[9] + L[16] * L[18] + L[24] * L[26] + L[31] * L[33] + L[41] * L[43] + L[50] * L[52] + L[58] * L[60] + L[65] * L[67];
-      s += L[75] * L[77] + L[84] * L[86] + L[92] * L[94] + L[99] * L[101] + L[109] * L[111] + L[118] * L[120] + L[126] * L[128] + L[133] * L[135];
-      s += L[140] * L[142] + L[147] * L[149] + L[154] * L[156] + L[161] * L[163] + L[168] * L[170] + L[174] * L[176] + L[179] * L[181] + L[183] * L[185];
-      L[188] = (L[188] - s) * Dinv[24];
+      jr::v2d s = L[7] * jr::load2(L + 8) + L[16] * jr::load2(L + 17) + L[24] * jr::load2(L + 25) + L[31] * jr::load2(L + 32) + L[41] * jr::load2(L + 42) + L[50] * jr::load2(L + 51) + L[58] * jr::load2(L + 59) + L[65] * jr::load2(L + 66);
+      s += L[75] * jr::load2(L + 76) + L[84] * jr::load2(L + 85) + L[92] * jr::load2(L + 93) + L[99] * jr::load2(L + 100) + L[109] * jr::load2(L + 110) + L[118] * jr::load2(L + 119) + L[126] * jr::load2(L + 127) + L[133] * jr::load2(L + 134);
+      s += L[140] * jr::load2(L + 141) + L[147] * jr::load2(L + 148) + L[154] * jr::load2(L + 155) + L[161] * jr::load2(L + 162) + L[168] * jr::load2(L + 169) + L[174] * jr::load2(L + 175) + L[179] * jr::load2(L + 180) + L[183] * jr::load2(L + 184);
+      jr::store2(L + 187, (jr::load2(L + 187) - s) * Dinv[24]);
     }
   }
   // column 25: joint 'chassis_floating' (coordinate 5 of 6); 25 descendant(s), 1 ancestor row(s)
@@ -700,14 +593,10 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[196])) return not_positive_definite(0, d);
     L[0] = std::sqrt(d);
     Dinv[0] = 1.0 / L[0];
-    L[1] = M[197] * Dinv[0];
-    L[2] = M[198] * Dinv[0];
-    L[3] = M[195] * Dinv[0];
-    L[4] = M[189] * Dinv[0];
-    L[5] = M[190] * Dinv[0];
-    L[6] = M[191] * Dinv[0];
-    L[7] = M[192] * Dinv[0];
-    L[8] = M[193] * Dinv[0];
+    jr::store2(L + 1, jr::set2(M[197], M[198]) * Dinv[0]);
+    jr::store2(L + 3, jr::set2(M[195], M[189]) * Dinv[0]);
+    jr::store2(L + 5, jr::set2(M[190], M[191]) * Dinv[0]);
+    jr::store2(L + 7, jr::set2(M[192], M[193]) * Dinv[0]);
     L[9] = M[194] * Dinv[0];
   }
   // column 1: joint 'rf_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
@@ -716,14 +605,10 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[224])) return not_positive_definite(1, d);
     L[10] = std::sqrt(d);
     Dinv[1] = 1.0 / L[10];
-    L[11] = (M[225] - L[1] * L[2]) * Dinv[1];
-    L[12] = (M[222] - L[1] * L[3]) * Dinv[1];
-    L[13] = (M[216] - L[1] * L[4]) * Dinv[1];
-    L[14] = (M[217] - L[1] * L[5]) * Dinv[1];
-    L[15] = (M[218] - L[1] * L[6]) * Dinv[1];
-    L[16] = (M[219] - L[1] * L[7]) * Dinv[1];
-    L[17] = (M[220] - L[1] * L[8]) * Dinv[1];
-    L[18] = (M[221] - L[1] * L[9]) * Dinv[1];
+    jr::store2(L + 11, (jr::set2(M[225], M[222]) - L[1] * jr::load2(L + 2)) * Dinv[1]);
+    jr::store2(L + 13, (jr::set2(M[216], M[217]) - L[1] * jr::load2(L + 4)) * Dinv[1]);
+    jr::store2(L + 15, (jr::set2(M[218], M[219]) - L[1] * jr::load2(L + 6)) * Dinv[1]);
+    jr::store2(L + 17, (jr::set2(M[220], M[221]) - L[1] * jr::load2(L + 8)) * Dinv[1]);
   }
   // column 2: joint 'rf_upper_ball' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
   {
@@ -731,12 +616,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[252])) return not_positive_definite(2, d);
     L[19] = std::sqrt(d);
     Dinv[2] = 1.0 / L[19];
-    L[20] = (M[249] - (L[2] * L[3] + L[11] * L[12])) * Dinv[2];
-    L[21] = (M[243] - (L[2] * L[4] + L[11] * L[13])) * Dinv[2];
-    L[22] = (M[244] - (L[2] * L[5] + L[11] * L[14])) * Dinv[2];
-    L[23] = (M[245] - (L[2] * L[6] + L[11] * L[15])) * Dinv[2];
-    L[24] = (M[246] - (L[2] * L[7] + L[11] * L[16])) * Dinv[2];
-    L[25] = (M[247] - (L[2] * L[8] + L[11] * L[17])) * Dinv[2];
+    jr::store2(L + 20, (jr::set2(M[249], M[243]) - (L[2] * jr::load2(L + 3) + L[11] * jr::load2(L + 12))) * Dinv[2]);
+    jr::store2(L + 22, (jr::set2(M[244], M[245]) - (L[2] * jr::load2(L + 5) + L[11] * jr::load2(L + 14))) * Dinv[2]);
+    jr::store2(L + 24, (jr::set2(M[246], M[247]) - (L[2] * jr::load2(L + 7) + L[11] * jr::load2(L + 16))) * Dinv[2]);
     L[26] = (M[248] - (L[2] * L[9] + L[11] * L[18])) * Dinv[2];
   }
   // column 3: joint 'rf_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
@@ -745,12 +627,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[168])) return not_positive_definite(3, d);
     L[27] = std::sqrt(d);
     Dinv[3] = 1.0 / L[27];
-    L[28] = (M[162] - (L[3] * L[4] + L[12] * L[13] + L[20] * L[21])) * Dinv[3];
-    L[29] = (M[163] - (L[3] * L[5] + L[12] * L[14] + L[20] * L[22])) * Dinv[3];
-    L[30] = (M[164] - (L[3] * L[6] + L[12] * L[15] + L[20] * L[23])) * Dinv[3];
-    L[31] = (M[165] - (L[3] * L[7] + L[12] * L[16] + L[20] * L[24])) * Dinv[3];
-    L[32] = (M[166] - (L[3] * L[8] + L[12] * L[17] + L[20] * L[25])) * Dinv[3];
-    L[33] = (M[167] - (L[3] * L[9] + L[12] * L[18] + L[20] * L[26])) * Dinv[3];
+    jr::store2(L + 28, (jr::set2(M[162], M[163]) - (L[3] * jr::load2(L + 4) + L[12] * jr::load2(L + 13) + L[20] * jr::load2(L + 21))) * Dinv[3]);
+    jr::store2(L + 30, (jr::set2(M[164], M[165]) - (L[3] * jr::load2(L + 6) + L[12] * jr::load2(L + 15) + L[20] * jr::load2(L + 23))) * Dinv[3]);
+    jr::store2(L + 32, (jr::set2(M[166], M[167]) - (L[3] * jr::load2(L + 8) + L[12] * jr::load2(L + 17) + L[20] * jr::load2(L + 25))) * Dinv[3]);
   }
   // column 4: joint 'lf_upper_ball' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
@@ -758,14 +637,10 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[308])) return not_positive_definite(4, d);
     L[34] = std::sqrt(d);
     Dinv[4] = 1.0 / L[34];
-    L[35] = M[309] * Dinv[4];
-    L[36] = M[310] * Dinv[4];
-    L[37] = M[307] * Dinv[4];
-    L[38] = M[297] * Dinv[4];
-    L[39] = M[298] * Dinv[4];
-    L[40] = M[299] * Dinv[4];
-    L[41] = M[300] * Dinv[4];
-    L[42] = M[301] * Dinv[4];
+    jr::store2(L + 35, jr::set2(M[309], M[310]) * Dinv[4]);
+    jr::store2(L + 37, jr::set2(M[307], M[297]) * Dinv[4]);
+    jr::store2(L + 39, jr::set2(M[298], M[299]) * Dinv[4]);
+    jr::store2(L + 41, jr::set2(M[300], M[301]) * Dinv[4]);
     L[43] = M[302] * Dinv[4];
   }
   // column 5: joint 'lf_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
@@ -774,14 +649,10 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[336])) return not_positive_definite(5, d);
     L[44] = std::sqrt(d);
     Dinv[5] = 1.0 / L[44];
-    L[45] = (M[337] - L[35] * L[36]) * Dinv[5];
-    L[46] = (M[334] - L[35] * L[37]) * Dinv[5];
-    L[47] = (M[324] - L[35] * L[38]) * Dinv[5];
-    L[48] = (M[325] - L[35] * L[39]) * Dinv[5];
-    L[49] = (M[326] - L[35] * L[40]) * Dinv[5];
-    L[50] = (M[327] - L[35] * L[41]) * Dinv[5];
-    L[51] = (M[328] - L[35] * L[42]) * Dinv[5];
-    L[52] = (M[329] - L[35] * L[43]) * Dinv[5];
+    jr::store2(L + 45, (jr::set2(M[337], M[334]) - L[35] * jr::load2(L + 36)) * Dinv[5]);
+    jr::store2(L + 47, (jr::set2(M[324], M[325]) - L[35] * jr::load2(L + 38)) * Dinv[5]);
+    jr::store2(L + 49, (jr::set2(M[326], M[327]) - L[35] * jr::load2(L + 40)) * Dinv[5]);
+    jr::store2(L + 51, (jr::set2(M[328], M[329]) - L[35] * jr::load2(L + 42)) * Dinv[5]);
   }
   // column 6: joint 'lf_upper_ball' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
   {
@@ -789,12 +660,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[364])) return not_positive_definite(6, d);
     L[53] = std::sqrt(d);
     Dinv[6] = 1.0 / L[53];
-    L[54] = (M[361] - (L[36] * L[37] + L[45] * L[46])) * Dinv[6];
-    L[55] = (M[351] - (L[36] * L[38] + L[45] * L[47])) * Dinv[6];
-    L[56] = (M[352] - (L[36] * L[39] + L[45] * L[48])) * Dinv[6];
-    L[57] = (M[353] - (L[36] * L[40] + L[45] * L[49])) * Dinv[6];
-    L[58] = (M[354] - (L[36] * L[41] + L[45] * L[50])) * Dinv[6];
-    L[59] = (M[355] - (L[36] * L[42] + L[45] * L[51])) * Dinv[6];
+    jr::store2(L + 54, (jr::set2(M[361], M[351]) - (L[36] * jr::load2(L + 37) + L[45] * jr::load2(L + 46))) * Dinv[6]);
+    jr::store2(L + 56, (jr::set2(M[352], M[353]) - (L[36] * jr::load2(L + 39) + L[45] * jr::load2(L + 48))) * Dinv[6]);
+    jr::store2(L + 58, (jr::set2(M[354], M[355]) - (L[36] * jr::load2(L + 41) + L[45] * jr::load2(L + 50))) * Dinv[6]);
     L[60] = (M[356] - (L[36] * L[43] + L[45] * L[52])) * Dinv[6];
   }
   // column 7: joint 'lf_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
@@ -803,12 +671,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[280])) return not_positive_definite(7, d);
     L[61] = std::sqrt(d);
     Dinv[7] = 1.0 / L[61];
-    L[62] = (M[270] - (L[37] * L[38] + L[46] * L[47] + L[54] * L[55])) * Dinv[7];
-    L[63] = (M[271] - (L[37] * L[39] + L[46] * L[48] + L[54] * L[56])) * Dinv[7];
-    L[64] = (M[272] - (L[37] * L[40] + L[46] * L[49] + L[54] * L[57])) * Dinv[7];
-    L[65] = (M[273] - (L[37] * L[41] + L[46] * L[50] + L[54] * L[58])) * Dinv[7];
-    L[66] = (M[274] - (L[37] * L[42] + L[46] * L[51] + L[54] * L[59])) * Dinv[7];
-    L[67] = (M[275] - (L[37] * L[43] + L[46] * L[52] + L[54] * L[60])) * Dinv[7];
+    jr::store2(L + 62, (jr::set2(M[270], M[271]) - (L[37] * jr::load2(L + 38) + L[46] * jr::load2(L + 47) + L[54] * jr::load2(L + 55))) * Dinv[7]);
+    jr::store2(L + 64, (jr::set2(M[272], M[273]) - (L[37] * jr::load2(L + 40) + L[46] * jr::load2(L + 49) + L[54] * jr::load2(L + 57))) * Dinv[7]);
+    jr::store2(L + 66, (jr::set2(M[274], M[275]) - (L[37] * jr::load2(L + 42) + L[46] * jr::load2(L + 51) + L[54] * jr::load2(L + 59))) * Dinv[7]);
   }
   // column 8: joint 'rr_upper_ball' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
@@ -816,14 +681,10 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[420])) return not_positive_definite(8, d);
     L[68] = std::sqrt(d);
     Dinv[8] = 1.0 / L[68];
-    L[69] = M[421] * Dinv[8];
-    L[70] = M[422] * Dinv[8];
-    L[71] = M[419] * Dinv[8];
-    L[72] = M[405] * Dinv[8];
-    L[73] = M[406] * Dinv[8];
-    L[74] = M[407] * Dinv[8];
-    L[75] = M[408] * Dinv[8];
-    L[76] = M[409] * Dinv[8];
+    jr::store2(L + 69, jr::set2(M[421], M[422]) * Dinv[8]);
+    jr::store2(L + 71, jr::set2(M[419], M[405]) * Dinv[8]);
+    jr::store2(L + 73, jr::set2(M[406], M[407]) * Dinv[8]);
+    jr::store2(L + 75, jr::set2(M[408], M[409]) * Dinv[8]);
     L[77] = M[410] * Dinv[8];
   }
   // column 9: joint 'rr_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
@@ -832,14 +693,10 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[448])) return not_positive_definite(9, d);
     L[78] = std::sqrt(d);
     Dinv[9] = 1.0 / L[78];
-    L[79] = (M[449] - L[69] * L[70]) * Dinv[9];
-    L[80] = (M[446] - L[69] * L[71]) * Dinv[9];
-    L[81] = (M[432] - L[69] * L[72]) * Dinv[9];
-    L[82] = (M[433] - L[69] * L[73]) * Dinv[9];
-    L[83] = (M[434] - L[69] * L[74]) * Dinv[9];
-    L[84] = (M[435] - L[69] * L[75]) * Dinv[9];
-    L[85] = (M[436] - L[69] * L[76]) * Dinv[9];
-    L[86] = (M[437] - L[69] * L[77]) * Dinv[9];
+    jr::store2(L + 79, (jr::set2(M[449], M[446]) - L[69] * jr::load2(L + 70)) * Dinv[9]);
+    jr::store2(L + 81, (jr::set2(M[432], M[433]) - L[69] * jr::load2(L + 72)) * Dinv[9]);
+    jr::store2(L + 83, (jr::set2(M[434], M[435]) - L[69] * jr::load2(L + 74)) * Dinv[9]);
+    jr::store2(L + 85, (jr::set2(M[436], M[437]) - L[69] * jr::load2(L + 76)) * Dinv[9]);
   }
   // column 10: joint 'rr_upper_ball' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
   {
@@ -847,12 +704,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[476])) return not_positive_definite(10, d);
     L[87] = std::sqrt(d);
     Dinv[10] = 1.0 / L[87];
-    L[88] = (M[473] - (L[70] * L[71] + L[79] * L[80])) * Dinv[10];
-    L[89] = (M[459] - (L[70] * L[72] + L[79] * L[81])) * Dinv[10];
-    L[90] = (M[460] - (L[70] * L[73] + L[79] * L[82])) * Dinv[10];
-    L[91] = (M[461] - (L[70] * L[74] + L[79] * L[83])) * Dinv[10];
-    L[92] = (M[462] - (L[70] * L[75] + L[79] * L[84])) * Dinv[10];
-    L[93] = (M[463] - (L[70] * L[76] + L[79] * L[85])) * Dinv[10];
+    jr::store2(L + 88, (jr::set2(M[473], M[459]) - (L[70] * jr::load2(L + 71) + L[79] * jr::load2(L + 80))) * Dinv[10]);
+    jr::store2(L + 90, (jr::set2(M[460], M[461]) - (L[70] * jr::load2(L + 73) + L[79] * jr::load2(L + 82))) * Dinv[10]);
+    jr::store2(L + 92, (jr::set2(M[462], M[463]) - (L[70] * jr::load2(L + 75) + L[79] * jr::load2(L + 84))) * Dinv[10]);
     L[94] = (M[464] - (L[70] * L[77] + L[79] * L[86])) * Dinv[10];
   }
   // column 11: joint 'rr_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
@@ -861,12 +715,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[392])) return not_positive_definite(11, d);
     L[95] = std::sqrt(d);
     Dinv[11] = 1.0 / L[95];
-    L[96] = (M[378] - (L[71] * L[72] + L[80] * L[81] + L[88] * L[89])) * Dinv[11];
-    L[97] = (M[379] - (L[71] * L[73] + L[80] * L[82] + L[88] * L[90])) * Dinv[11];
-    L[98] = (M[380] - (L[71] * L[74] + L[80] * L[83] + L[88] * L[91])) * Dinv[11];
-    L[99] = (M[381] - (L[71] * L[75] + L[80] * L[84] + L[88] * L[92])) * Dinv[11];
-    L[100] = (M[382] - (L[71] * L[76] + L[80] * L[85] + L[88] * L[93])) * Dinv[11];
-    L[101] = (M[383] - (L[71] * L[77] + L[80] * L[86] + L[88] * L[94])) * Dinv[11];
+    jr::store2(L + 96, (jr::set2(M[378], M[379]) - (L[71] * jr::load2(L + 72) + L[80] * jr::load2(L + 81) + L[88] * jr::load2(L + 89))) * Dinv[11]);
+    jr::store2(L + 98, (jr::set2(M[380], M[381]) - (L[71] * jr::load2(L + 74) + L[80] * jr::load2(L + 83) + L[88] * jr::load2(L + 91))) * Dinv[11]);
+    jr::store2(L + 100, (jr::set2(M[382], M[383]) - (L[71] * jr::load2(L + 76) + L[80] * jr::load2(L + 85) + L[88] * jr::load2(L + 93))) * Dinv[11]);
   }
   // column 12: joint 'lr_upper_ball' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
@@ -874,14 +725,10 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[532])) return not_positive_definite(12, d);
     L[102] = std::sqrt(d);
     Dinv[12] = 1.0 / L[102];
-    L[103] = M[533] * Dinv[12];
-    L[104] = M[534] * Dinv[12];
-    L[105] = M[531] * Dinv[12];
-    L[106] = M[513] * Dinv[12];
-    L[107] = M[514] * Dinv[12];
-    L[108] = M[515] * Dinv[12];
-    L[109] = M[516] * Dinv[12];
-    L[110] = M[517] * Dinv[12];
+    jr::store2(L + 103, jr::set2(M[533], M[534]) * Dinv[12]);
+    jr::store2(L + 105, jr::set2(M[531], M[513]) * Dinv[12]);
+    jr::store2(L + 107, jr::set2(M[514], M[515]) * Dinv[12]);
+    jr::store2(L + 109, jr::set2(M[516], M[517]) * Dinv[12]);
     L[111] = M[518] * Dinv[12];
   }
   // column 13: joint 'lr_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
@@ -890,14 +737,10 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[560])) return not_positive_definite(13, d);
     L[112] = std::sqrt(d);
     Dinv[13] = 1.0 / L[112];
-    L[113] = (M[561] - L[103] * L[104]) * Dinv[13];
-    L[114] = (M[558] - L[103] * L[105]) * Dinv[13];
-    L[115] = (M[540] - L[103] * L[106]) * Dinv[13];
-    L[116] = (M[541] - L[103] * L[107]) * Dinv[13];
-    L[117] = (M[542] - L[103] * L[108]) * Dinv[13];
-    L[118] = (M[543] - L[103] * L[109]) * Dinv[13];
-    L[119] = (M[544] - L[103] * L[110]) * Dinv[13];
-    L[120] = (M[545] - L[103] * L[111]) * Dinv[13];
+    jr::store2(L + 113, (jr::set2(M[561], M[558]) - L[103] * jr::load2(L + 104)) * Dinv[13]);
+    jr::store2(L + 115, (jr::set2(M[540], M[541]) - L[103] * jr::load2(L + 106)) * Dinv[13]);
+    jr::store2(L + 117, (jr::set2(M[542], M[543]) - L[103] * jr::load2(L + 108)) * Dinv[13]);
+    jr::store2(L + 119, (jr::set2(M[544], M[545]) - L[103] * jr::load2(L + 110)) * Dinv[13]);
   }
   // column 14: joint 'lr_upper_ball' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
   {
@@ -905,12 +748,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[588])) return not_positive_definite(14, d);
     L[121] = std::sqrt(d);
     Dinv[14] = 1.0 / L[121];
-    L[122] = (M[585] - (L[104] * L[105] + L[113] * L[114])) * Dinv[14];
-    L[123] = (M[567] - (L[104] * L[106] + L[113] * L[115])) * Dinv[14];
-    L[124] = (M[568] - (L[104] * L[107] + L[113] * L[116])) * Dinv[14];
-    L[125] = (M[569] - (L[104] * L[108] + L[113] * L[117])) * Dinv[14];
-    L[126] = (M[570] - (L[104] * L[109] + L[113] * L[118])) * Dinv[14];
-    L[127] = (M[571] - (L[104] * L[110] + L[113] * L[119])) * Dinv[14];
+    jr::store2(L + 122, (jr::set2(M[585], M[567]) - (L[104] * jr::load2(L + 105) + L[113] * jr::load2(L + 114))) * Dinv[14]);
+    jr::store2(L + 124, (jr::set2(M[568], M[569]) - (L[104] * jr::load2(L + 107) + L[113] * jr::load2(L + 116))) * Dinv[14]);
+    jr::store2(L + 126, (jr::set2(M[570], M[571]) - (L[104] * jr::load2(L + 109) + L[113] * jr::load2(L + 118))) * Dinv[14]);
     L[128] = (M[572] - (L[104] * L[111] + L[113] * L[120])) * Dinv[14];
   }
   // column 15: joint 'lr_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
@@ -919,12 +759,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[504])) return not_positive_definite(15, d);
     L[129] = std::sqrt(d);
     Dinv[15] = 1.0 / L[129];
-    L[130] = (M[486] - (L[105] * L[106] + L[114] * L[115] + L[122] * L[123])) * Dinv[15];
-    L[131] = (M[487] - (L[105] * L[107] + L[114] * L[116] + L[122] * L[124])) * Dinv[15];
-    L[132] = (M[488] - (L[105] * L[108] + L[114] * L[117] + L[122] * L[125])) * Dinv[15];
-    L[133] = (M[489] - (L[105] * L[109] + L[114] * L[118] + L[122] * L[126])) * Dinv[15];
-    L[134] = (M[490] - (L[105] * L[110] + L[114] * L[119] + L[122] * L[127])) * Dinv[15];
-    L[135] = (M[491] - (L[105] * L[111] + L[114] * L[120] + L[122] * L[128])) * Dinv[15];
+    jr::store2(L + 130, (jr::set2(M[486], M[487]) - (L[105] * jr::load2(L + 106) + L[114] * jr::load2(L + 115) + L[122] * jr::load2(L + 123))) * Dinv[15]);
+    jr::store2(L + 132, (jr::set2(M[488], M[489]) - (L[105] * jr::load2(L + 108) + L[114] * jr::load2(L + 117) + L[122] * jr::load2(L + 125))) * Dinv[15]);
+    jr::store2(L + 134, (jr::set2(M[490], M[491]) - (L[105] * jr::load2(L + 110) + L[114] * jr::load2(L + 119) + L[122] * jr::load2(L + 127))) * Dinv[15]);
   }
   // column 16: joint 'rack_slide'; 0 descendant(s), 6 ancestor row(s)
   {
@@ -932,12 +769,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[616])) return not_positive_definite(16, d);
     L[136] = std::sqrt(d);
     Dinv[16] = 1.0 / L[136];
-    L[137] = M[594] * Dinv[16];
-    L[138] = M[595] * Dinv[16];
-    L[139] = M[596] * Dinv[16];
-    L[140] = M[597] * Dinv[16];
-    L[141] = M[598] * Dinv[16];
-    L[142] = M[599] * Dinv[16];
+    jr::store2(L + 137, jr::set2(M[594], M[595]) * Dinv[16]);
+    jr::store2(L + 139, jr::set2(M[596], M[597]) * Dinv[16]);
+    jr::store2(L + 141, jr::set2(M[598], M[599]) * Dinv[16]);
   }
   // column 17: joint 'rf_lower_pivot'; 0 descendant(s), 6 ancestor row(s)
   {
@@ -945,12 +779,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[644])) return not_positive_definite(17, d);
     L[143] = std::sqrt(d);
     Dinv[17] = 1.0 / L[143];
-    L[144] = M[621] * Dinv[17];
-    L[145] = M[622] * Dinv[17];
-    L[146] = M[623] * Dinv[17];
-    L[147] = M[624] * Dinv[17];
-    L[148] = M[625] * Dinv[17];
-    L[149] = M[626] * Dinv[17];
+    jr::store2(L + 144, jr::set2(M[621], M[622]) * Dinv[17]);
+    jr::store2(L + 146, jr::set2(M[623], M[624]) * Dinv[17]);
+    jr::store2(L + 148, jr::set2(M[625], M[626]) * Dinv[17]);
   }
   // column 18: joint 'lf_lower_pivot'; 0 descendant(s), 6 ancestor row(s)
   {
@@ -958,12 +789,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[672])) return not_positive_definite(18, d);
     L[150] = std::sqrt(d);
     Dinv[18] = 1.0 / L[150];
-    L[151] = M[648] * Dinv[18];
-    L[152] = M[649] * Dinv[18];
-    L[153] = M[650] * Dinv[18];
-    L[154] = M[651] * Dinv[18];
-    L[155] = M[652] * Dinv[18];
-    L[156] = M[653] * Dinv[18];
+    jr::store2(L + 151, jr::set2(M[648], M[649]) * Dinv[18]);
+    jr::store2(L + 153, jr::set2(M[650], M[651]) * Dinv[18]);
+    jr::store2(L + 155, jr::set2(M[652], M[653]) * Dinv[18]);
   }
   // column 19: joint 'rr_lower_pivot'; 0 descendant(s), 6 ancestor row(s)
   {
@@ -971,12 +799,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[700])) return not_positive_definite(19, d);
     L[157] = std::sqrt(d);
     Dinv[19] = 1.0 / L[157];
-    L[158] = M[675] * Dinv[19];
-    L[159] = M[676] * Dinv[19];
-    L[160] = M[677] * Dinv[19];
-    L[161] = M[678] * Dinv[19];
-    L[162] = M[679] * Dinv[19];
-    L[163] = M[680] * Dinv[19];
+    jr::store2(L + 158, jr::set2(M[675], M[676]) * Dinv[19]);
+    jr::store2(L + 160, jr::set2(M[677], M[678]) * Dinv[19]);
+    jr::store2(L + 162, jr::set2(M[679], M[680]) * Dinv[19]);
   }
   // column 20: joint 'lr_lower_pivot'; 0 descendant(s), 6 ancestor row(s)
   {
@@ -984,12 +809,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[728])) return not_positive_definite(20, d);
     L[164] = std::sqrt(d);
     Dinv[20] = 1.0 / L[164];
-    L[165] = M[702] * Dinv[20];
-    L[166] = M[703] * Dinv[20];
-    L[167] = M[704] * Dinv[20];
-    L[168] = M[705] * Dinv[20];
-    L[169] = M[706] * Dinv[20];
-    L[170] = M[707] * Dinv[20];
+    jr::store2(L + 165, jr::set2(M[702], M[703]) * Dinv[20]);
+    jr::store2(L + 167, jr::set2(M[704], M[705]) * Dinv[20]);
+    jr::store2(L + 169, jr::set2(M[706], M[707]) * Dinv[20]);
   }
   // column 21: joint 'chassis_floating' (coordinate 1 of 6); 21 descendant(s), 5 ancestor row(s)
   {
@@ -1001,28 +823,16 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     L[171] = std::sqrt(d);
     Dinv[21] = 1.0 / L[171];
     {
-      double s = L[4] * L[5] + L[13] * L[14] + L[21] * L[22] + L[28] * L[29] + L[38] * L[39] + L[47] * L[48] + L[55] * L[56] + L[62] * L[63];
-      s += L[72] * L[73] + L[81] * L[82] + L[89] * L[90] + L[96] * L[97] + L[106] * L[107] + L[115] * L[116] + L[123] * L[124] + L[130] * L[131];
-      s += L[137] * L[138] + L[144] * L[145] + L[151] * L[152] + L[158] * L[159] + L[165] * L[166];
-      L[172] = (M[1] - s) * Dinv[21];
+      jr::v2d s = L[4] * jr::load2(L + 5) + L[13] * jr::load2(L + 14) + L[21] * jr::load2(L + 22) + L[28] * jr::load2(L + 29) + L[38] * jr::load2(L + 39) + L[47] * jr::load2(L + 48) + L[55] * jr::load2(L + 56) + L[62] * jr::load2(L + 63);
+      s += L[72] * jr::load2(L + 73) + L[81] * jr::load2(L + 82) + L[89] * jr::load2(L + 90) + L[96] * jr::load2(L + 97) + L[106] * jr::load2(L + 107) + L[115] * jr::load2(L + 116) + L[123] * jr::load2(L + 124) + L[130] * jr::load2(L + 131);
+      s += L[137] * jr::load2(L + 138) + L[144] * jr::load2(L + 145) + L[151] * jr::load2(L + 152) + L[158] * jr::load2(L + 159) + L[165] * jr::load2(L + 166);
+      jr::store2(L + 172, (jr::set2(M[1], M[2]) - s) * Dinv[21]);
     }
     {
-      double s = L[4] * L[6] + L[13] * L[15] + L[21] * L[23] + L[28] * L[30] + L[38] * L[40] + L[47] * L[49] + L[55] * L[57] + L[62] * L[64];
-      s += L[72] * L[74] + L[81] * L[83] + L[89] * L[91] + L[96] * L[98] + L[106] * L[108] + L[115] * L[117] + L[123] * L[125] + L[130] * L[132];
-      s += L[137] * L[139] + L[144] * L[146] + L[151] * L[153] + L[158] * L[160] + L[165] * L[167];
-      L[173] = (M[2] - s) * Dinv[21];
-    }
-    {
-      double s = L[4] * L[7] + L[13] * L[16] + L[21] * L[24] + L[28] * L[31] + L[38] * L[41] + L[47] * L[50] + L[55] * L[58] + L[62] * L[65];
-      s += L[72] * L[75] + L[81] * L[84] + L[89] * L[92] + L[96] * L[99] + L[106] * L[109] + L[115] * L[118] + L[123] * L[126] + L[130] * L[133];
-      s += L[137] * L[140] + L[144] * L[147] + L[151] * L[154] + L[158] * L[161] + L[165] * L[168];
-      L[174] = (M[3] - s) * Dinv[21];
-    }
-    {
-      double s = L[4] * L[8] + L[13] * L[17] + L[21] * L[25] + L[28] * L[32] + L[38] * L[42] + L[47] * L[51] + L[55] * L[59] + L[62] * L[66];
-      s += L[72] * L[76] + L[81] * L[85] + L[89] * L[93] + L[96] * L[100] + L[106] * L[110] + L[115] * L[119] + L[123] * L[127] + L[130] * L[134];
-      s += L[137] * L[141] + L[144] * L[148] + L[151] * L[155] + L[158] * L[162] + L[165] * L[169];
-      L[175] = (M[4] - s) * Dinv[21];
+      jr::v2d s = L[4] * jr::load2(L + 7) + L[13] * jr::load2(L + 16) + L[21] * jr::load2(L + 24) + L[28] * jr::load2(L + 31) + L[38] * jr::load2(L + 41) + L[47] * jr::load2(L + 50) + L[55] * jr::load2(L + 58) + L[62] * jr::load2(L + 65);
+      s += L[72] * jr::load2(L + 75) + L[81] * jr::load2(L + 84) + L[89] * jr::load2(L + 92) + L[96] * jr::load2(L + 99) + L[106] * jr::load2(L + 109) + L[115] * jr::load2(L + 118) + L[123] * jr::load2(L + 126) + L[130] * jr::load2(L + 133);
+      s += L[137] * jr::load2(L + 140) + L[144] * jr::load2(L + 147) + L[151] * jr::load2(L + 154) + L[158] * jr::load2(L + 161) + L[165] * jr::load2(L + 168);
+      jr::store2(L + 174, (jr::set2(M[3], M[4]) - s) * Dinv[21]);
     }
     {
       double s = L[4] * L[9] + L[13] * L[18] + L[21] * L[26] + L[28] * L[33] + L[38] * L[43] + L[47] * L[52] + L[55] * L[60] + L[62] * L[67];
@@ -1041,28 +851,16 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     L[177] = std::sqrt(d);
     Dinv[22] = 1.0 / L[177];
     {
-      double s = L[5] * L[6] + L[14] * L[15] + L[22] * L[23] + L[29] * L[30] + L[39] * L[40] + L[48] * L[49] + L[56] * L[57] + L[63] * L[64];
-      s += L[73] * L[74] + L[82] * L[83] + L[90] * L[91] + L[97] * L[98] + L[107] * L[108] + L[116] * L[117] + L[124] * L[125] + L[131] * L[132];
-      s += L[138] * L[139] + L[145] * L[146] + L[152] * L[153] + L[159] * L[160] + L[166] * L[167] + L[172] * L[173];
-      L[178] = (M[29] - s) * Dinv[22];
+      jr::v2d s = L[5] * jr::load2(L + 6) + L[14] * jr::load2(L + 15) + L[22] * jr::load2(L + 23) + L[29] * jr::load2(L + 30) + L[39] * jr::load2(L + 40) + L[48] * jr::load2(L + 49) + L[56] * jr::load2(L + 57) + L[63] * jr::load2(L + 64);
+      s += L[73] * jr::load2(L + 74) + L[82] * jr::load2(L + 83) + L[90] * jr::load2(L + 91) + L[97] * jr::load2(L + 98) + L[107] * jr::load2(L + 108) + L[116] * jr::load2(L + 117) + L[124] * jr::load2(L + 125) + L[131] * jr::load2(L + 132);
+      s += L[138] * jr::load2(L + 139) + L[145] * jr::load2(L + 146) + L[152] * jr::load2(L + 153) + L[159] * jr::load2(L + 160) + L[166] * jr::load2(L + 167) + L[172] * jr::load2(L + 173);
+      jr::store2(L + 178, (jr::set2(M[29], M[30]) - s) * Dinv[22]);
     }
     {
-      double s = L[5] * L[7] + L[14] * L[16] + L[22] * L[24] + L[29] * L[31] + L[39] * L[41] + L[48] * L[50] + L[56] * L[58] + L[63] * L[65];
-      s += L[73] * L[75] + L[82] * L[84] + L[90] * L[92] + L[97] * L[99] + L[107] * L[109] + L[116] * L[118] + L[124] * L[126] + L[131] * L[133];
-      s += L[138] * L[140] + L[145] * L[147] + L[152] * L[154] + L[159] * L[161] + L[166] * L[168] + L[172] * L[174];
-      L[179] = (M[30] - s) * Dinv[22];
-    }
-    {
-      double s = L[5] * L[8] + L[14] * L[17] + L[22] * L[25] + L[29] * L[32] + L[39] * L[42] + L[48] * L[51] + L[56] * L[59] + L[63] * L[66];
-      s += L[73] * L[76] + L[82] * L[85] + L[90] * L[93] + L[97] * L[100] + L[107] * L[110] + L[116] * L[119] + L[124] * L[127] + L[131] * L[134];
-      s += L[138] * L[141] + L[145] * L[148] + L[152] * L[155] + L[159] * L[162] + L[166] * L[169] + L[172] * L[175];
-      L[180] = (M[31] - s) * Dinv[22];
-    }
-    {
-      double s = L[5] * L[9] + L[14] * L[18] + L[22] * L[26] + L[29] * L[33] + L[39] * L[43] + L[48] * L[52] + L[56] * L[60] + L[63] * L[67];
-      s += L[73] * L[77] + L[82] * L[86] + L[90] * L[94] + L[97] * L[101] + L[107] * L[111] + L[116] * L[120] + L[124] * L[128] + L[131] * L[135];
-      s += L[138] * L[142] + L[145] * L[149] + L[152] * L[156] + L[159] * L[163] + L[166] * L[170] + L[172] * L[176];
-      L[181] = (M[32] - s) * Dinv[22];
+      jr::v2d s = L[5] * jr::load2(L + 8) + L[14] * jr::load2(L + 17) + L[22] * jr::load2(L + 25) + L[29] * jr::load2(L + 32) + L[39] * jr::load2(L + 42) + L[48] * jr::load2(L + 51) + L[56] * jr::load2(L + 59) + L[63] * jr::load2(L + 66);
+      s += L[73] * jr::load2(L + 76) + L[82] * jr::load2(L + 85) + L[90] * jr::load2(L + 93) + L[97] * jr::load2(L + 100) + L[107] * jr::load2(L + 110) + L[116] * jr::load2(L + 119) + L[124] * jr::load2(L + 127) + L[131] * jr::load2(L + 134);
+      s += L[138] * jr::load2(L + 141) + L[145] * jr::load2(L + 148) + L[152] * jr::load2(L + 155) + L[159] * jr::load2(L + 162) + L[166] * jr::load2(L + 169) + L[172] * jr::load2(L + 175);
+      jr::store2(L + 180, (jr::set2(M[31], M[32]) - s) * Dinv[22]);
     }
   }
   // column 23: joint 'chassis_floating' (coordinate 3 of 6); 23 descendant(s), 3 ancestor row(s)
@@ -1075,16 +873,10 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     L[182] = std::sqrt(d);
     Dinv[23] = 1.0 / L[182];
     {
-      double s = L[6] * L[7] + L[15] * L[16] + L[23] * L[24] + L[30] * L[31] + L[40] * L[41] + L[49] * L[50] + L[57] * L[58] + L[64] * L[65];
-      s += L[74] * L[75] + L[83] * L[84] + L[91] * L[92] + L[98] * L[99] + L[108] * L[109] + L[117] * L[118] + L[125] * L[126] + L[132] * L[133];
-      s += L[139] * L[140] + L[146] * L[147] + L[153] * L[154] + L[160] * L[161] + L[167] * L[168] + L[173] * L[174] + L[178] * L[179];
-      L[183] = (M[57] - s) * Dinv[23];
-    }
-    {
-      double s = L[6] * L[8] + L[15] * L[17] + L[23] * L[25] + L[30] * L[32] + L[40] * L[42] + L[49] * L[51] + L[57] * L[59] + L[64] * L[66];
-      s += L[74] * L[76] + L[83] * L[85] + L[91] * L[93] + L[98] * L[100] + L[108] * L[110] + L[117] * L[119] + L[125] * L[127] + L[132] * L[134];
-      s += L[139] * L[141] + L[146] * L[148] + L[153] * L[155] + L[160] * L[162] + L[167] * L[169] + L[173] * L[175] + L[178] * L[180];
-      L[184] = (M[58] - s) * Dinv[23];
+      jr::v2d s = L[6] * jr::load2(L + 7) + L[15] * jr::load2(L + 16) + L[23] * jr::load2(L + 24) + L[30] * jr::load2(L + 31) + L[40] * jr::load2(L + 41) + L[49] * jr::load2(L + 50) + L[57] * jr::load2(L + 58) + L[64] * jr::load2(L + 65);
+      s += L[74] * jr::load2(L + 75) + L[83] * jr::load2(L + 84) + L[91] * jr::load2(L + 92) + L[98] * jr::load2(L + 99) + L[108] * jr::load2(L + 109) + L[117] * jr::load2(L + 118) + L[125] * jr::load2(L + 126) + L[132] * jr::load2(L + 133);
+      s += L[139] * jr::load2(L + 140) + L[146] * jr::load2(L + 147) + L[153] * jr::load2(L + 154) + L[160] * jr::load2(L + 161) + L[167] * jr::load2(L + 168) + L[173] * jr::load2(L + 174) + L[178] * jr::load2(L + 179);
+      jr::store2(L + 183, (jr::set2(M[57], M[58]) - s) * Dinv[23]);
     }
     {
       double s = L[6] * L[9] + L[15] * L[18] + L[23] * L[26] + L[30] * L[33] + L[40] * L[43] + L[49] * L[52] + L[57] * L[60] + L[64] * L[67];
@@ -1103,16 +895,10 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     L[186] = std::sqrt(d);
     Dinv[24] = 1.0 / L[186];
     {
-      double s = L[7] * L[8] + L[16] * L[17] + L[24] * L[25] + L[31] * L[32] + L[41] * L[42] + L[50] * L[51] + L[58] * L[59] + L[65] * L[66];
-      s += L[75] * L[76] + L[84] * L[85] + L[92] * L[93] + L[99] * L[100] + L[109] * L[110] + L[118] * L[119] + L[126] * L[127] + L[133] * L[134];
-      s += L[140] * L[141] + L[147] * L[148] + L[154] * L[155] + L[161] * L[162] + L[168] * L[169] + L[174] * L[175] + L[179] * L[180] + L[183] * L[184];
-      L[187] = (M[85] - s) * Dinv[24];
-    }
-    {
-      double s = L[7] * L[9] + L[16] * L[18] + L[24] * L[26] + L[31] * L[33] + L[41] * L[43] + L[50] * L[52] + L[58] * L[60] + L[65] * L[67];
-      s += L[75] * L[77] + L[84] * L[86] + L[92] * L[94] + L[99] * L[101] + L[109] * L[111] + L[118] * L[120] + L[126] * L[128] + L[133] * L[135];
-      s += L[140] * L[142] + L[147] * L[149] + L[154] * L[156] + L[161] * L[163] + L[168] * L[170] + L[174] * L[176] + L[179] * L[181] + L[183] * L[185];
-      L[188] = (M[86] - s) * Dinv[24];
+      jr::v2d s = L[7] * jr::load2(L + 8) + L[16] * jr::load2(L + 17) + L[24] * jr::load2(L + 25) + L[31] * jr::load2(L + 32) + L[41] * jr::load2(L + 42) + L[50] * jr::load2(L + 51) + L[58] * jr::load2(L + 59) + L[65] * jr::load2(L + 66);
+      s += L[75] * jr::load2(L + 76) + L[84] * jr::load2(L + 85) + L[92] * jr::load2(L + 93) + L[99] * jr::load2(L + 100) + L[109] * jr::load2(L + 110) + L[118] * jr::load2(L + 119) + L[126] * jr::load2(L + 127) + L[133] * jr::load2(L + 134);
+      s += L[140] * jr::load2(L + 141) + L[147] * jr::load2(L + 148) + L[154] * jr::load2(L + 155) + L[161] * jr::load2(L + 162) + L[168] * jr::load2(L + 169) + L[174] * jr::load2(L + 175) + L[179] * jr::load2(L + 180) + L[183] * jr::load2(L + 184);
+      jr::store2(L + 187, (jr::set2(M[85], M[86]) - s) * Dinv[24]);
     }
   }
   // column 25: joint 'chassis_floating' (coordinate 5 of 6); 25 descendant(s), 1 ancestor row(s)

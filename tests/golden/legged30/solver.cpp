@@ -257,14 +257,10 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[0])) return not_positive_definite(0, d);
     L[0] = std::sqrt(d);
     Dinv[0] = 1.0 / L[0];
-    L[1] *= Dinv[0];
-    L[2] *= Dinv[0];
-    L[3] *= Dinv[0];
-    L[4] *= Dinv[0];
-    L[5] *= Dinv[0];
-    L[6] *= Dinv[0];
-    L[7] *= Dinv[0];
-    L[8] *= Dinv[0];
+    jr::store2(L + 1, jr::load2(L + 1) * Dinv[0]);
+    jr::store2(L + 3, jr::load2(L + 3) * Dinv[0]);
+    jr::store2(L + 5, jr::load2(L + 5) * Dinv[0]);
+    jr::store2(L + 7, jr::load2(L + 7) * Dinv[0]);
     L[9] *= Dinv[0];
   }
   // column 1: joint 'neck' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
@@ -273,14 +269,10 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[10])) return not_positive_definite(1, d);
     L[10] = std::sqrt(d);
     Dinv[1] = 1.0 / L[10];
-    L[11] = (L[11] - L[1] * L[2]) * Dinv[1];
-    L[12] = (L[12] - L[1] * L[3]) * Dinv[1];
-    L[13] = (L[13] - L[1] * L[4]) * Dinv[1];
-    L[14] = (L[14] - L[1] * L[5]) * Dinv[1];
-    L[15] = (L[15] - L[1] * L[6]) * Dinv[1];
-    L[16] = (L[16] - L[1] * L[7]) * Dinv[1];
-    L[17] = (L[17] - L[1] * L[8]) * Dinv[1];
-    L[18] = (L[18] - L[1] * L[9]) * Dinv[1];
+    jr::store2(L + 11, (jr::load2(L + 11) - L[1] * jr::load2(L + 2)) * Dinv[1]);
+    jr::store2(L + 13, (jr::load2(L + 13) - L[1] * jr::load2(L + 4)) * Dinv[1]);
+    jr::store2(L + 15, (jr::load2(L + 15) - L[1] * jr::load2(L + 6)) * Dinv[1]);
+    jr::store2(L + 17, (jr::load2(L + 17) - L[1] * jr::load2(L + 8)) * Dinv[1]);
   }
   // column 2: joint 'neck' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
   {
@@ -288,12 +280,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[19])) return not_positive_definite(2, d);
     L[19] = std::sqrt(d);
     Dinv[2] = 1.0 / L[19];
-    L[20] = (L[20] - (L[2] * L[3] + L[11] * L[12])) * Dinv[2];
-    L[21] = (L[21] - (L[2] * L[4] + L[11] * L[13])) * Dinv[2];
-    L[22] = (L[22] - (L[2] * L[5] + L[11] * L[14])) * Dinv[2];
-    L[23] = (L[23] - (L[2] * L[6] + L[11] * L[15])) * Dinv[2];
-    L[24] = (L[24] - (L[2] * L[7] + L[11] * L[16])) * Dinv[2];
-    L[25] = (L[25] - (L[2] * L[8] + L[11] * L[17])) * Dinv[2];
+    jr::store2(L + 20, (jr::load2(L + 20) - (L[2] * jr::load2(L + 3) + L[11] * jr::load2(L + 12))) * Dinv[2]);
+    jr::store2(L + 22, (jr::load2(L + 22) - (L[2] * jr::load2(L + 5) + L[11] * jr::load2(L + 14))) * Dinv[2]);
+    jr::store2(L + 24, (jr::load2(L + 24) - (L[2] * jr::load2(L + 7) + L[11] * jr::load2(L + 16))) * Dinv[2]);
     L[26] = (L[26] - (L[2] * L[9] + L[11] * L[18])) * Dinv[2];
   }
   // column 3: joint 'left_elbow'; 0 descendant(s), 10 ancestor row(s)
@@ -302,16 +291,11 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[27])) return not_positive_definite(3, d);
     L[27] = std::sqrt(d);
     Dinv[3] = 1.0 / L[27];
-    L[28] *= Dinv[3];
-    L[29] *= Dinv[3];
-    L[30] *= Dinv[3];
-    L[31] *= Dinv[3];
-    L[32] *= Dinv[3];
-    L[33] *= Dinv[3];
-    L[34] *= Dinv[3];
-    L[35] *= Dinv[3];
-    L[36] *= Dinv[3];
-    L[37] *= Dinv[3];
+    jr::store2(L + 28, jr::load2(L + 28) * Dinv[3]);
+    jr::store2(L + 30, jr::load2(L + 30) * Dinv[3]);
+    jr::store2(L + 32, jr::load2(L + 32) * Dinv[3]);
+    jr::store2(L + 34, jr::load2(L + 34) * Dinv[3]);
+    jr::store2(L + 36, jr::load2(L + 36) * Dinv[3]);
   }
   // column 4: joint 'left_shoulder' (coordinate 1 of 3); 1 descendant(s), 9 ancestor row(s)
   {
@@ -319,14 +303,10 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[38])) return not_positive_definite(4, d);
     L[38] = std::sqrt(d);
     Dinv[4] = 1.0 / L[38];
-    L[39] = (L[39] - L[28] * L[29]) * Dinv[4];
-    L[40] = (L[40] - L[28] * L[30]) * Dinv[4];
-    L[41] = (L[41] - L[28] * L[31]) * Dinv[4];
-    L[42] = (L[42] - L[28] * L[32]) * Dinv[4];
-    L[43] = (L[43] - L[28] * L[33]) * Dinv[4];
-    L[44] = (L[44] - L[28] * L[34]) * Dinv[4];
-    L[45] = (L[45] - L[28] * L[35]) * Dinv[4];
-    L[46] = (L[46] - L[28] * L[36]) * Dinv[4];
+    jr::store2(L + 39, (jr::load2(L + 39) - L[28] * jr::load2(L + 29)) * Dinv[4]);
+    jr::store2(L + 41, (jr::load2(L + 41) - L[28] * jr::load2(L + 31)) * Dinv[4]);
+    jr::store2(L + 43, (jr::load2(L + 43) - L[28] * jr::load2(L + 33)) * Dinv[4]);
+    jr::store2(L + 45, (jr::load2(L + 45) - L[28] * jr::load2(L + 35)) * Dinv[4]);
     L[47] = (L[47] - L[28] * L[37]) * Dinv[4];
   }
   // column 5: joint 'left_shoulder' (coordinate 2 of 3); 2 descendant(s), 8 ancestor row(s)
@@ -335,14 +315,10 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[48])) return not_positive_definite(5, d);
     L[48] = std::sqrt(d);
     Dinv[5] = 1.0 / L[48];
-    L[49] = (L[49] - (L[29] * L[30] + L[39] * L[40])) * Dinv[5];
-    L[50] = (L[50] - (L[29] * L[31] + L[39] * L[41])) * Dinv[5];
-    L[51] = (L[51] - (L[29] * L[32] + L[39] * L[42])) * Dinv[5];
-    L[52] = (L[52] - (L[29] * L[33] + L[39] * L[43])) * Dinv[5];
-    L[53] = (L[53] - (L[29] * L[34] + L[39] * L[44])) * Dinv[5];
-    L[54] = (L[54] - (L[29] * L[35] + L[39] * L[45])) * Dinv[5];
-    L[55] = (L[55] - (L[29] * L[36] + L[39] * L[46])) * Dinv[5];
-    L[56] = (L[56] - (L[29] * L[37] + L[39] * L[47])) * Dinv[5];
+    jr::store2(L + 49, (jr::load2(L + 49) - (L[29] * jr::load2(L + 30) + L[39] * jr::load2(L + 40))) * Dinv[5]);
+    jr::store2(L + 51, (jr::load2(L + 51) - (L[29] * jr::load2(L + 32) + L[39] * jr::load2(L + 42))) * Dinv[5]);
+    jr::store2(L + 53, (jr::load2(L + 53) - (L[29] * jr::load2(L + 34) + L[39] * jr::load2(L + 44))) * Dinv[5]);
+    jr::store2(L + 55, (jr::load2(L + 55) - (L[29] * jr::load2(L + 36) + L[39] * jr::load2(L + 46))) * Dinv[5]);
   }
   // column 6: joint 'left_shoulder' (coordinate 3 of 3); 3 descendant(s), 7 ancestor row(s)
   {
@@ -350,12 +326,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[57])) return not_positive_definite(6, d);
     L[57] = std::sqrt(d);
     Dinv[6] = 1.0 / L[57];
-    L[58] = (L[58] - (L[30] * L[31] + L[40] * L[41] + L[49] * L[50])) * Dinv[6];
-    L[59] = (L[59] - (L[30] * L[32] + L[40] * L[42] + L[49] * L[51])) * Dinv[6];
-    L[60] = (L[60] - (L[30] * L[33] + L[40] * L[43] + L[49] * L[52])) * Dinv[6];
-    L[61] = (L[61] - (L[30] * L[34] + L[40] * L[44] + L[49] * L[53])) * Dinv[6];
-    L[62] = (L[62] - (L[30] * L[35] + L[40] * L[45] + L[49] * L[54])) * Dinv[6];
-    L[63] = (L[63] - (L[30] * L[36] + L[40] * L[46] + L[49] * L[55])) * Dinv[6];
+    jr::store2(L + 58, (jr::load2(L + 58) - (L[30] * jr::load2(L + 31) + L[40] * jr::load2(L + 41) + L[49] * jr::load2(L + 50))) * Dinv[6]);
+    jr::store2(L + 60, (jr::load2(L + 60) - (L[30] * jr::load2(L + 33) + L[40] * jr::load2(L + 43) + L[49] * jr::load2(L + 52))) * Dinv[6]);
+    jr::store2(L + 62, (jr::load2(L + 62) - (L[30] * jr::load2(L + 35) + L[40] * jr::load2(L + 45) + L[49] * jr::load2(L + 54))) * Dinv[6]);
     L[64] = (L[64] - (L[30] * L[37] + L[40] * L[47] + L[49] * L[56])) * Dinv[6];
   }
   // column 7: joint 'right_elbow'; 0 descendant(s), 10 ancestor row(s)
@@ -364,16 +337,11 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[65])) return not_positive_definite(7, d);
     L[65] = std::sqrt(d);
     Dinv[7] = 1.0 / L[65];
-    L[66] *= Dinv[7];
-    L[67] *= Dinv[7];
-    L[68] *= Dinv[7];
-    L[69] *= Dinv[7];
-    L[70] *= Dinv[7];
-    L[71] *= Dinv[7];
-    L[72] *= Dinv[7];
-    L[73] *= Dinv[7];
-    L[74] *= Dinv[7];
-    L[75] *= Dinv[7];
+    jr::store2(L + 66, jr::load2(L + 66) * Dinv[7]);
+    jr::store2(L + 68, jr::load2(L + 68) * Dinv[7]);
+    jr::store2(L + 70, jr::load2(L + 70) * Dinv[7]);
+    jr::store2(L + 72, jr::load2(L + 72) * Dinv[7]);
+    jr::store2(L + 74, jr::load2(L + 74) * Dinv[7]);
   }
   // column 8: joint 'right_shoulder' (coordinate 1 of 3); 1 descendant(s), 9 ancestor row(s)
   {
@@ -381,14 +349,10 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[76])) return not_positive_definite(8, d);
     L[76] = std::sqrt(d);
     Dinv[8] = 1.0 / L[76];
-    L[77] = (L[77] - L[66] * L[67]) * Dinv[8];
-    L[78] = (L[78] - L[66] * L[68]) * Dinv[8];
-    L[79] = (L[79] - L[66] * L[69]) * Dinv[8];
-    L[80] = (L[80] - L[66] * L[70]) * Dinv[8];
-    L[81] = (L[81] - L[66] * L[71]) * Dinv[8];
-    L[82] = (L[82] - L[66] * L[72]) * Dinv[8];
-    L[83] = (L[83] - L[66] * L[73]) * Dinv[8];
-    L[84] = (L[84] - L[66] * L[74]) * Dinv[8];
+    jr::store2(L + 77, (jr::load2(L + 77) - L[66] * jr::load2(L + 67)) * Dinv[8]);
+    jr::store2(L + 79, (jr::load2(L + 79) - L[66] * jr::load2(L + 69)) * Dinv[8]);
+    jr::store2(L + 81, (jr::load2(L + 81) - L[66] * jr::load2(L + 71)) * Dinv[8]);
+    jr::store2(L + 83, (jr::load2(L + 83) - L[66] * jr::load2(L + 73)) * Dinv[8]);
     L[85] = (L[85] - L[66] * L[75]) * Dinv[8];
   }
   // column 9: joint 'right_shoulder' (coordinate 2 of 3); 2 descendant(s), 8 ancestor row(s)
@@ -397,14 +361,10 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[86])) return not_positive_definite(9, d);
     L[86] = std::sqrt(d);
     Dinv[9] = 1.0 / L[86];
-    L[87] = (L[87] - (L[67] * L[68] + L[77] * L[78])) * Dinv[9];
-    L[88] = (L[88] - (L[67] * L[69] + L[77] * L[79])) * Dinv[9];
-    L[89] = (L[89] - (L[67] * L[70] + L[77] * L[80])) * Dinv[9];
-    L[90] = (L[90] - (L[67] * L[71] + L[77] * L[81])) * Dinv[9];
-    L[91] = (L[91] - (L[67] * L[72] + L[77] * L[82])) * Dinv[9];
-    L[92] = (L[92] - (L[67] * L[73] + L[77] * L[83])) * Dinv[9];
-    L[93] = (L[93] - (L[67] * L[74] + L[77] * L[84])) * Dinv[9];
-    L[94] = (L[94] - (L[67] * L[75] + L[77] * L[85])) * Dinv[9];
+    jr::store2(L + 87, (jr::load2(L + 87) - (L[67] * jr::load2(L + 68) + L[77] * jr::load2(L + 78))) * Dinv[9]);
+    jr::store2(L + 89, (jr::load2(L + 89) - (L[67] * jr::load2(L + 70) + L[77] * jr::load2(L + 80))) * Dinv[9]);
+    jr::store2(L + 91, (jr::load2(L + 91) - (L[67] * jr::load2(L + 72) + L[77] * jr::load2(L + 82))) * Dinv[9]);
+    jr::store2(L + 93, (jr::load2(L + 93) - (L[67] * jr::load2(L + 74) + L[77] * jr::load2(L + 84))) * Dinv[9]);
   }
   // column 10: joint 'right_shoulder' (coordinate 3 of 3); 3 descendant(s), 7 ancestor row(s)
   {
@@ -412,12 +372,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[95])) return not_positive_definite(10, d);
     L[95] = std::sqrt(d);
     Dinv[10] = 1.0 / L[95];
-    L[96] = (L[96] - (L[68] * L[69] + L[78] * L[79] + L[87] * L[88])) * Dinv[10];
-    L[97] = (L[97] - (L[68] * L[70] + L[78] * L[80] + L[87] * L[89])) * Dinv[10];
-    L[98] = (L[98] - (L[68] * L[71] + L[78] * L[81] + L[87] * L[90])) * Dinv[10];
-    L[99] = (L[99] - (L[68] * L[72] + L[78] * L[82] + L[87] * L[91])) * Dinv[10];
-    L[100] = (L[100] - (L[68] * L[73] + L[78] * L[83] + L[87] * L[92])) * Dinv[10];
-    L[101] = (L[101] - (L[68] * L[74] + L[78] * L[84] + L[87] * L[93])) * Dinv[10];
+    jr::store2(L + 96, (jr::load2(L + 96) - (L[68] * jr::load2(L + 69) + L[78] * jr::load2(L + 79) + L[87] * jr::load2(L + 88))) * Dinv[10]);
+    jr::store2(L + 98, (jr::load2(L + 98) - (L[68] * jr::load2(L + 71) + L[78] * jr::load2(L + 81) + L[87] * jr::load2(L + 90))) * Dinv[10]);
+    jr::store2(L + 100, (jr::load2(L + 100) - (L[68] * jr::load2(L + 73) + L[78] * jr::load2(L + 83) + L[87] * jr::load2(L + 92))) * Dinv[10]);
     L[102] = (L[102] - (L[68] * L[75] + L[78] * L[85] + L[87] * L[94])) * Dinv[10];
   }
   // column 11: joint 'waist_yaw'; 11 descendant(s), 6 ancestor row(s)
@@ -429,34 +386,19 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     L[103] = std::sqrt(d);
     Dinv[11] = 1.0 / L[103];
     {
-      double s = L[3] * L[4] + L[12] * L[13] + L[20] * L[21] + L[31] * L[32] + L[41] * L[42] + L[50] * L[51] + L[58] * L[59] + L[69] * L[70];
-      s += L[79] * L[80] + L[88] * L[89] + L[96] * L[97];
-      L[104] = (L[104] - s) * Dinv[11];
+      jr::v2d s = L[3] * jr::load2(L + 4) + L[12] * jr::load2(L + 13) + L[20] * jr::load2(L + 21) + L[31] * jr::load2(L + 32) + L[41] * jr::load2(L + 42) + L[50] * jr::load2(L + 51) + L[58] * jr::load2(L + 59) + L[69] * jr::load2(L + 70);
+      s += L[79] * jr::load2(L + 80) + L[88] * jr::load2(L + 89) + L[96] * jr::load2(L + 97);
+      jr::store2(L + 104, (jr::load2(L + 104) - s) * Dinv[11]);
     }
     {
-      double s = L[3] * L[5] + L[12] * L[14] + L[20] * L[22] + L[31] * L[33] + L[41] * L[43] + L[50] * L[52] + L[58] * L[60] + L[69] * L[71];
-      s += L[79] * L[81] + L[88] * L[90] + L[96] * L[98];
-      L[105] = (L[105] - s) * Dinv[11];
+      jr::v2d s = L[3] * jr::load2(L + 6) + L[12] * jr::load2(L + 15) + L[20] * jr::load2(L + 23) + L[31] * jr::load2(L + 34) + L[41] * jr::load2(L + 44) + L[50] * jr::load2(L + 53) + L[58] * jr::load2(L + 61) + L[69] * jr::load2(L + 72);
+      s += L[79] * jr::load2(L + 82) + L[88] * jr::load2(L + 91) + L[96] * jr::load2(L + 99);
+      jr::store2(L + 106, (jr::load2(L + 106) - s) * Dinv[11]);
     }
     {
-      double s = L[3] * L[6] + L[12] * L[15] + L[20] * L[23] + L[31] * L[34] + L[41] * L[44] + L[50] * L[53] + L[58] * L[61] + L[69] * L[72];
-      s += L[79] * L[82] + L[88] * L[91] + L[96] * L[99];
-      L[106] = (L[106] - s) * Dinv[11];
-    }
-    {
-      double s = L[3] * L[7] + L[12] * L[16] + L[20] * L[24] + L[31] * L[35] + L[41] * L[45] + L[50] * L[54] + L[58] * L[62] + L[69] * L[73];
-      s += L[79] * L[83] + L[88] * L[92] + L[96] * L[100];
-      L[107] = (L[107] - s) * Dinv[11];
-    }
-    {
-      double s = L[3] * L[8] + L[12] * L[17] + L[20] * L[25] + L[31] * L[36] + L[41] * L[46] + L[50] * L[55] + L[58] * L[63] + L[69] * L[74];
-      s += L[79] * L[84] + L[88] * L[93] + L[96] * L[101];
-      L[108] = (L[108] - s) * Dinv[11];
-    }
-    {
-      double s = L[3] * L[9] + L[12] * L[18] + L[20] * L[26] + L[31] * L[37] + L[41] * L[47] + L[50] * L[56] + L[58] * L[64] + L[69] * L[75];
-      s += L[79] * L[85] + L[88] * L[94] + L[96] * L[102];
-      L[109] = (L[109] - s) * Dinv[11];
+      jr::v2d s = L[3] * jr::load2(L + 8) + L[12] * jr::load2(L + 17) + L[20] * jr::load2(L + 25) + L[31] * jr::load2(L + 36) + L[41] * jr::load2(L + 46) + L[50] * jr::load2(L + 55) + L[58] * jr::load2(L + 63) + L[69] * jr::load2(L + 74);
+      s += L[79] * jr::load2(L + 84) + L[88] * jr::load2(L + 93) + L[96] * jr::load2(L + 101);
+      jr::store2(L + 108, (jr::load2(L + 108) - s) * Dinv[11]);
     }
   }
   // column 12: joint 'left_ankle_roll'; 0 descendant(s), 11 ancestor row(s)
@@ -465,16 +407,11 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[110])) return not_positive_definite(12, d);
     L[110] = std::sqrt(d);
     Dinv[12] = 1.0 / L[110];
-    L[111] *= Dinv[12];
-    L[112] *= Dinv[12];
-    L[113] *= Dinv[12];
-    L[114] *= Dinv[12];
-    L[115] *= Dinv[12];
-    L[116] *= Dinv[12];
-    L[117] *= Dinv[12];
-    L[118] *= Dinv[12];
-    L[119] *= Dinv[12];
-    L[120] *= Dinv[12];
+    jr::store2(L + 111, jr::load2(L + 111) * Dinv[12]);
+    jr::store2(L + 113, jr::load2(L + 113) * Dinv[12]);
+    jr::store2(L + 115, jr::load2(L + 115) * Dinv[12]);
+    jr::store2(L + 117, jr::load2(L + 117) * Dinv[12]);
+    jr::store2(L + 119, jr::load2(L + 119) * Dinv[12]);
     L[121] *= Dinv[12];
   }
   // column 13: joint 'left_ankle_pitch'; 1 descendant(s), 10 ancestor row(s)
@@ -483,16 +420,11 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[122])) return not_positive_definite(13, d);
     L[122] = std::sqrt(d);
     Dinv[13] = 1.0 / L[122];
-    L[123] = (L[123] - L[111] * L[112]) * Dinv[13];
-    L[124] = (L[124] - L[111] * L[113]) * Dinv[13];
-    L[125] = (L[125] - L[111] * L[114]) * Dinv[13];
-    L[126] = (L[126] - L[111] * L[115]) * Dinv[13];
-    L[127] = (L[127] - L[111] * L[116]) * Dinv[13];
-    L[128] = (L[128] - L[111] * L[117]) * Dinv[13];
-    L[129] = (L[129] - L[111] * L[118]) * Dinv[13];
-    L[130] = (L[130] - L[111] * L[119]) * Dinv[13];
-    L[131] = (L[131] - L[111] * L[120]) * Dinv[13];
-    L[132] = (L[132] - L[111] * L[121]) * Dinv[13];
+    jr::store2(L + 123, (jr::load2(L + 123) - L[111] * jr::load2(L + 112)) * Dinv[13]);
+    jr::store2(L + 125, (jr::load2(L + 125) - L[111] * jr::load2(L + 114)) * Dinv[13]);
+    jr::store2(L + 127, (jr::load2(L + 127) - L[111] * jr::load2(L + 116)) * Dinv[13]);
+    jr::store2(L + 129, (jr::load2(L + 129) - L[111] * jr::load2(L + 118)) * Dinv[13]);
+    jr::store2(L + 131, (jr::load2(L + 131) - L[111] * jr::load2(L + 120)) * Dinv[13]);
   }
   // column 14: joint 'left_knee'; 2 descendant(s), 9 ancestor row(s)
   {
@@ -500,14 +432,10 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[133])) return not_positive_definite(14, d);
     L[133] = std::sqrt(d);
     Dinv[14] = 1.0 / L[133];
-    L[134] = (L[134] - (L[112] * L[113] + L[123] * L[124])) * Dinv[14];
-    L[135] = (L[135] - (L[112] * L[114] + L[123] * L[125])) * Dinv[14];
-    L[136] = (L[136] - (L[112] * L[115] + L[123] * L[126])) * Dinv[14];
-    L[137] = (L[137] - (L[112] * L[116] + L[123] * L[127])) * Dinv[14];
-    L[138] = (L[138] - (L[112] * L[117] + L[123] * L[128])) * Dinv[14];
-    L[139] = (L[139] - (L[112] * L[118] + L[123] * L[129])) * Dinv[14];
-    L[140] = (L[140] - (L[112] * L[119] + L[123] * L[130])) * Dinv[14];
-    L[141] = (L[141] - (L[112] * L[120] + L[123] * L[131])) * Dinv[14];
+    jr::store2(L + 134, (jr::load2(L + 134) - (L[112] * jr::load2(L + 113) + L[123] * jr::load2(L + 124))) * Dinv[14]);
+    jr::store2(L + 136, (jr::load2(L + 136) - (L[112] * jr::load2(L + 115) + L[123] * jr::load2(L + 126))) * Dinv[14]);
+    jr::store2(L + 138, (jr::load2(L + 138) - (L[112] * jr::load2(L + 117) + L[123] * jr::load2(L + 128))) * Dinv[14]);
+    jr::store2(L + 140, (jr::load2(L + 140) - (L[112] * jr::load2(L + 119) + L[123] * jr::load2(L + 130))) * Dinv[14]);
     L[142] = (L[142] - (L[112] * L[121] + L[123] * L[132])) * Dinv[14];
   }
   // column 15: joint 'left_hip' (coordinate 1 of 3); 3 descendant(s), 8 ancestor row(s)
@@ -516,14 +444,10 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[143])) return not_positive_definite(15, d);
     L[143] = std::sqrt(d);
     Dinv[15] = 1.0 / L[143];
-    L[144] = (L[144] - (L[113] * L[114] + L[124] * L[125] + L[134] * L[135])) * Dinv[15];
-    L[145] = (L[145] - (L[113] * L[115] + L[124] * L[126] + L[134] * L[136])) * Dinv[15];
-    L[146] = (L[146] - (L[113] * L[116] + L[124] * L[127] + L[134] * L[137])) * Dinv[15];
-    L[147] = (L[147] - (L[113] * L[117] + L[124] * L[128] + L[134] * L[138])) * Dinv[15];
-    L[148] = (L[148] - (L[113] * L[118] + L[124] * L[129] + L[134] * L[139])) * Dinv[15];
-    L[149] = (L[149] - (L[113] * L[119] + L[124] * L[130] + L[134] * L[140])) * Dinv[15];
-    L[150] = (L[150] - (L[113] * L[120] + L[124] * L[131] + L[134] * L[141])) * Dinv[15];
-    L[151] = (L[151] - (L[113] * L[121] + L[124] * L[132] + L[134] * L[142])) * Dinv[15];
+    jr::store2(L + 144, (jr::load2(L + 144) - (L[113] * jr::load2(L + 114) + L[124] * jr::load2(L + 125) + L[134] * jr::load2(L + 135))) * Dinv[15]);
+    jr::store2(L + 146, (jr::load2(L + 146) - (L[113] * jr::load2(L + 116) + L[124] * jr::load2(L + 127) + L[134] * jr::load2(L + 137))) * Dinv[15]);
+    jr::store2(L + 148, (jr::load2(L + 148) - (L[113] * jr::load2(L + 118) + L[124] * jr::load2(L + 129) + L[134] * jr::load2(L + 139))) * Dinv[15]);
+    jr::store2(L + 150, (jr::load2(L + 150) - (L[113] * jr::load2(L + 120) + L[124] * jr::load2(L + 131) + L[134] * jr::load2(L + 141))) * Dinv[15]);
   }
   // column 16: joint 'left_hip' (coordinate 2 of 3); 4 descendant(s), 7 ancestor row(s)
   {
@@ -531,12 +455,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[152])) return not_positive_definite(16, d);
     L[152] = std::sqrt(d);
     Dinv[16] = 1.0 / L[152];
-    L[153] = (L[153] - (L[114] * L[115] + L[125] * L[126] + L[135] * L[136] + L[144] * L[145])) * Dinv[16];
-    L[154] = (L[154] - (L[114] * L[116] + L[125] * L[127] + L[135] * L[137] + L[144] * L[146])) * Dinv[16];
-    L[155] = (L[155] - (L[114] * L[117] + L[125] * L[128] + L[135] * L[138] + L[144] * L[147])) * Dinv[16];
-    L[156] = (L[156] - (L[114] * L[118] + L[125] * L[129] + L[135] * L[139] + L[144] * L[148])) * Dinv[16];
-    L[157] = (L[157] - (L[114] * L[119] + L[125] * L[130] + L[135] * L[140] + L[144] * L[149])) * Dinv[16];
-    L[158] = (L[158] - (L[114] * L[120] + L[125] * L[131] + L[135] * L[141] + L[144] * L[150])) * Dinv[16];
+    jr::store2(L + 153, (jr::load2(L + 153) - (L[114] * jr::load2(L + 115) + L[125] * jr::load2(L + 126) + L[135] * jr::load2(L + 136) + L[144] * jr::load2(L + 145))) * Dinv[16]);
+    jr::store2(L + 155, (jr::load2(L + 155) - (L[114] * jr::load2(L + 117) + L[125] * jr::load2(L + 128) + L[135] * jr::load2(L + 138) + L[144] * jr::load2(L + 147))) * Dinv[16]);
+    jr::store2(L + 157, (jr::load2(L + 157) - (L[114] * jr::load2(L + 119) + L[125] * jr::load2(L + 130) + L[135] * jr::load2(L + 140) + L[144] * jr::load2(L + 149))) * Dinv[16]);
     L[159] = (L[159] - (L[114] * L[121] + L[125] * L[132] + L[135] * L[142] + L[144] * L[151])) * Dinv[16];
   }
   // column 17: joint 'left_hip' (coordinate 3 of 3); 5 descendant(s), 6 ancestor row(s)
@@ -545,12 +466,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[160])) return not_positive_definite(17, d);
     L[160] = std::sqrt(d);
     Dinv[17] = 1.0 / L[160];
-    L[161] = (L[161] - (L[115] * L[116] + L[126] * L[127] + L[136] * L[137] + L[145] * L[146] + L[153] * L[154])) * Dinv[17];
-    L[162] = (L[162] - (L[115] * L[117] + L[126] * L[128] + L[136] * L[138] + L[145] * L[147] + L[153] * L[155])) * Dinv[17];
-    L[163] = (L[163] - (L[115] * L[118] + L[126] * L[129] + L[136] * L[139] + L[145] * L[148] + L[153] * L[156])) * Dinv[17];
-    L[164] = (L[164] - (L[115] * L[119] + L[126] * L[130] + L[136] * L[140] + L[145] * L[149] + L[153] * L[157])) * Dinv[17];
-    L[165] = (L[165] - (L[115] * L[120] + L[126] * L[131] + L[136] * L[141] + L[145] * L[150] + L[153] * L[158])) * Dinv[17];
-    L[166] = (L[166] - (L[115] * L[121] + L[126] * L[132] + L[136] * L[142] + L[145] * L[151] + L[153] * L[159])) * Dinv[17];
+    jr::store2(L + 161, (jr::load2(L + 161) - (L[115] * jr::load2(L + 116) + L[126] * jr::load2(L + 127) + L[136] * jr::load2(L + 137) + L[145] * jr::load2(L + 146) + L[153] * jr::load2(L + 154))) * Dinv[17]);
+    jr::store2(L + 163, (jr::load2(L + 163) - (L[115] * jr::load2(L + 118) + L[126] * jr::load2(L + 129) + L[136] * jr::load2(L + 139) + L[145] * jr::load2(L + 148) + L[153] * jr::load2(L + 156))) * Dinv[17]);
+    jr::store2(L + 165, (jr::load2(L + 165) - (L[115] * jr::load2(L + 120) + L[126] * jr::load2(L + 131) + L[136] * jr::load2(L + 141) + L[145] * jr::load2(L + 150) + L[153] * jr::load2(L + 158))) * Dinv[17]);
   }
   // column 18: joint 'right_ankle_roll'; 0 descendant(s), 11 ancestor row(s)
   {
@@ -558,16 +476,11 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[167])) return not_positive_definite(18, d);
     L[167] = std::sqrt(d);
     Dinv[18] = 1.0 / L[167];
-    L[168] *= Dinv[18];
-    L[169] *= Dinv[18];
-    L[170] *= Dinv[18];
-    L[171] *= Dinv[18];
-    L[172] *= Dinv[18];
-    L[173] *= Dinv[18];
-    L[174] *= Dinv[18];
-    L[175] *= Dinv[18];
-    L[176] *= Dinv[18];
-    L[177] *= Dinv[18];
+    jr::store2(L + 168, jr::load2(L + 168) * Dinv[18]);
+    jr::store2(L + 170, jr::load2(L + 170) * Dinv[18]);
+    jr::store2(L + 172, jr::load2(L + 172) * Dinv[18]);
+    jr::store2(L + 174, jr::load2(L + 174) * Dinv[18]);
+    jr::store2(L + 176, jr::load2(L + 176) * Dinv[18]);
     L[178] *= Dinv[18];
   }
   // column 19: joint 'right_ankle_pitch'; 1 descendant(s), 10 ancestor row(s)
@@ -576,16 +489,11 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[179])) return not_positive_definite(19, d);
     L[179] = std::sqrt(d);
     Dinv[19] = 1.0 / L[179];
-    L[180] = (L[180] - L[168] * L[169]) * Dinv[19];
-    L[181] = (L[181] - L[168] * L[170]) * Dinv[19];
-    L[182] = (L[182] - L[168] * L[171]) * Dinv[19];
-    L[183] = (L[183] - L[168] * L[172]) * Dinv[19];
-    L[184] = (L[184] - L[168] * L[173]) * Dinv[19];
-    L[185] = (L[185] - L[168] * L[174]) * Dinv[19];
-    L[186] = (L[186] - L[168] * L[175]) * Dinv[19];
-    L[187] = (L[187] - L[168] * L[176]) * Dinv[19];
-    L[188] = (L[188] - L[168] * L[177]) * Dinv[19];
-    L[189] = (L[189] - L[168] * L[178]) * Dinv[19];
+    jr::store2(L + 180, (jr::load2(L + 180) - L[168] * jr::load2(L + 169)) * Dinv[19]);
+    jr::store2(L + 182, (jr::load2(L + 182) - L[168] * jr::load2(L + 171)) * Dinv[19]);
+    jr::store2(L + 184, (jr::load2(L + 184) - L[168] * jr::load2(L + 173)) * Dinv[19]);
+    jr::store2(L + 186, (jr::load2(L + 186) - L[168] * jr::load2(L + 175)) * Dinv[19]);
+    jr::store2(L + 188, (jr::load2(L + 188) - L[168] * jr::load2(L + 177)) * Dinv[19]);
   }
   // column 20: joint 'right_knee'; 2 descendant(s), 9 ancestor row(s)
   {
@@ -593,14 +501,10 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[190])) return not_positive_definite(20, d);
     L[190] = std::sqrt(d);
     Dinv[20] = 1.0 / L[190];
-    L[191] = (L[191] - (L[169] * L[170] + L[180] * L[181])) * Dinv[20];
-    L[192] = (L[192] - (L[169] * L[171] + L[180] * L[182])) * Dinv[20];
-    L[193] = (L[193] - (L[169] * L[172] + L[180] * L[183])) * Dinv[20];
-    L[194] = (L[194] - (L[169] * L[173] + L[180] * L[184])) * Dinv[20];
-    L[195] = (L[195] - (L[169] * L[174] + L[180] * L[185])) * Dinv[20];
-    L[196] = (L[196] - (L[169] * L[175] + L[180] * L[186])) * Dinv[20];
-    L[197] = (L[197] - (L[169] * L[176] + L[180] * L[187])) * Dinv[20];
-    L[198] = (L[198] - (L[169] * L[177] + L[180] * L[188])) * Dinv[20];
+    jr::store2(L + 191, (jr::load2(L + 191) - (L[169] * jr::load2(L + 170) + L[180] * jr::load2(L + 181))) * Dinv[20]);
+    jr::store2(L + 193, (jr::load2(L + 193) - (L[169] * jr::load2(L + 172) + L[180] * jr::load2(L + 183))) * Dinv[20]);
+    jr::store2(L + 195, (jr::load2(L + 195) - (L[169] * jr::load2(L + 174) + L[180] * jr::load2(L + 185))) * Dinv[20]);
+    jr::store2(L + 197, (jr::load2(L + 197) - (L[169] * jr::load2(L + 176) + L[180] * jr::load2(L + 187))) * Dinv[20]);
     L[199] = (L[199] - (L[169] * L[178] + L[180] * L[189])) * Dinv[20];
   }
   // column 21: joint 'right_hip' (coordinate 1 of 3); 3 descendant(s), 8 ancestor row(s)
@@ -609,14 +513,10 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[200])) return not_positive_definite(21, d);
     L[200] = std::sqrt(d);
     Dinv[21] = 1.0 / L[200];
-    L[201] = (L[201] - (L[170] * L[171] + L[181] * L[182] + L[191] * L[192])) * Dinv[21];
-    L[202] = (L[202] - (L[170] * L[172] + L[181] * L[183] + L[191] * L[193])) * Dinv[21];
-    L[203] = (L[203] - (L[170] * L[173] + L[181] * L[184] + L[191] * L[194])) * Dinv[21];
-    L[204] = (L[204] - (L[170] * L[174] + L[181] * L[185] + L[191] * L[195])) * Dinv[21];
-    L[205] = (L[205] - (L[170] * L[175] + L[181] * L[186] + L[191] * L[196])) * Dinv[21];
-    L[206] = (L[206] - (L[170] * L[176] + L[181] * L[187] + L[191] * L[197])) * Dinv[21];
-    L[207] = (L[207] - (L[170] * L[177] + L[181] * L[188] + L[191] * L[198])) * Dinv[21];
-    L[208] = (L[208] - (L[170] * L[178] + L[181] * L[189] + L[191] * L[199])) * Dinv[21];
+    jr::store2(L + 201, (jr::load2(L + 201) - (L[170] * jr::load2(L + 171) + L[181] * jr::load2(L + 182) + L[191] * jr::load2(L + 192))) * Dinv[21]);
+    jr::store2(L + 203, (jr::load2(L + 203) - (L[170] * jr::load2(L + 173) + L[181] * jr::load2(L + 184) + L[191] * jr::load2(L + 194))) * Dinv[21]);
+    jr::store2(L + 205, (jr::load2(L + 205) - (L[170] * jr::load2(L + 175) + L[181] * jr::load2(L + 186) + L[191] * jr::load2(L + 196))) * Dinv[21]);
+    jr::store2(L + 207, (jr::load2(L + 207) - (L[170] * jr::load2(L + 177) + L[181] * jr::load2(L + 188) + L[191] * jr::load2(L + 198))) * Dinv[21]);
   }
   // column 22: joint 'right_hip' (coordinate 2 of 3); 4 descendant(s), 7 ancestor row(s)
   {
@@ -624,12 +524,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[209])) return not_positive_definite(22, d);
     L[209] = std::sqrt(d);
     Dinv[22] = 1.0 / L[209];
-    L[210] = (L[210] - (L[171] * L[172] + L[182] * L[183] + L[192] * L[193] + L[201] * L[202])) * Dinv[22];
-    L[211] = (L[211] - (L[171] * L[173] + L[182] * L[184] + L[192] * L[194] + L[201] * L[203])) * Dinv[22];
-    L[212] = (L[212] - (L[171] * L[174] + L[182] * L[185] + L[192] * L[195] + L[201] * L[204])) * Dinv[22];
-    L[213] = (L[213] - (L[171] * L[175] + L[182] * L[186] + L[192] * L[196] + L[201] * L[205])) * Dinv[22];
-    L[214] = (L[214] - (L[171] * L[176] + L[182] * L[187] + L[192] * L[197] + L[201] * L[206])) * Dinv[22];
-    L[215] = (L[215] - (L[171] * L[177] + L[182] * L[188] + L[192] * L[198] + L[201] * L[207])) * Dinv[22];
+    jr::store2(L + 210, (jr::load2(L + 210) - (L[171] * jr::load2(L + 172) + L[182] * jr::load2(L + 183) + L[192] * jr::load2(L + 193) + L[201] * jr::load2(L + 202))) * Dinv[22]);
+    jr::store2(L + 212, (jr::load2(L + 212) - (L[171] * jr::load2(L + 174) + L[182] * jr::load2(L + 185) + L[192] * jr::load2(L + 195) + L[201] * jr::load2(L + 204))) * Dinv[22]);
+    jr::store2(L + 214, (jr::load2(L + 214) - (L[171] * jr::load2(L + 176) + L[182] * jr::load2(L + 187) + L[192] * jr::load2(L + 197) + L[201] * jr::load2(L + 206))) * Dinv[22]);
     L[216] = (L[216] - (L[171] * L[178] + L[182] * L[189] + L[192] * L[199] + L[201] * L[208])) * Dinv[22];
   }
   // column 23: joint 'right_hip' (coordinate 3 of 3); 5 descendant(s), 6 ancestor row(s)
@@ -638,12 +535,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     if (!(d > kPivotTolerance * L[217])) return not_positive_definite(23, d);
     L[217] = std::sqrt(d);
     Dinv[23] = 1.0 / L[217];
-    L[218] = (L[218] - (L[172] * L[173] + L[183] * L[184] + L[193] * L[194] + L[202] * L[203] + L[210] * L[211])) * Dinv[23];
-    L[219] = (L[219] - (L[172] * L[174] + L[183] * L[185] + L[193] * L[195] + L[202] * L[204] + L[210] * L[212])) * Dinv[23];
-    L[220] = (L[220] - (L[172] * L[175] + L[183] * L[186] + L[193] * L[196] + L[202] * L[205] + L[210] * L[213])) * Dinv[23];
-    L[221] = (L[221] - (L[172] * L[176] + L[183] * L[187] + L[193] * L[197] + L[202] * L[206] + L[210] * L[214])) * Dinv[23];
-    L[222] = (L[222] - (L[172] * L[177] + L[183] * L[188] + L[193] * L[198] + L[202] * L[207] + L[210] * L[215])) * Dinv[23];
-    L[223] = (L[223] - (L[172] * L[178] + L[183] * L[189] + L[193] * L[199] + L[202] * L[208] + L[210] * L[216])) * Dinv[23];
+    jr::store2(L + 218, (jr::load2(L + 218) - (L[172] * jr::load2(L + 173) + L[183] * jr::load2(L + 184) + L[193] * jr::load2(L + 194) + L[202] * jr::load2(L + 203) + L[210] * jr::load2(L + 211))) * Dinv[23]);
+    jr::store2(L + 220, (jr::load2(L + 220) - (L[172] * jr::load2(L + 175) + L[183] * jr::load2(L + 186) + L[193] * jr::load2(L + 196) + L[202] * jr::load2(L + 205) + L[210] * jr::load2(L + 213))) * Dinv[23]);
+    jr::store2(L + 222, (jr::load2(L + 222) - (L[172] * jr::load2(L + 177) + L[183] * jr::load2(L + 188) + L[193] * jr::load2(L + 198) + L[202] * jr::load2(L + 207) + L[210] * jr::load2(L + 215))) * Dinv[23]);
   }
   // column 24: joint 'floating_base' (coordinate 1 of 6); 24 descendant(s), 5 ancestor row(s)
   {
@@ -655,28 +549,16 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     L[224] = std::sqrt(d);
     Dinv[24] = 1.0 / L[224];
     {
-      double s = L[4] * L[5] + L[13] * L[14] + L[21] * L[22] + L[32] * L[33] + L[42] * L[43] + L[51] * L[52] + L[59] * L[60] + L[70] * L[71];
-      s += L[80] * L[81] + L[89] * L[90] + L[97] * L[98] + L[104] * L[105] + L[116] * L[117] + L[127] * L[128] + L[137] * L[138] + L[146] * L[147];
-      s += L[154] * L[155] + L[161] * L[162] + L[173] * L[174] + L[184] * L[185] + L[194] * L[195] + L[203] * L[204] + L[211] * L[212] + L[218] * L[219];
-      L[225] = (L[225] - s) * Dinv[24];
+      jr::v2d s = L[4] * jr::load2(L + 5) + L[13] * jr::load2(L + 14) + L[21] * jr::load2(L + 22) + L[32] * jr::load2(L + 33) + L[42] * jr::load2(L + 43) + L[51] * jr::load2(L + 52) + L[59] * jr::load2(L + 60) + L[70] * jr::load2(L + 71);
+      s += L[80] * jr::load2(L + 81) + L[89] * jr::load2(L + 90) + L[97] * jr::load2(L + 98) + L[104] * jr::load2(L + 105) + L[116] * jr::load2(L + 117) + L[127] * jr::load2(L + 128) + L[137] * jr::load2(L + 138) + L[146] * jr::load2(L + 147);
+      s += L[154] * jr::load2(L + 155) + L[161] * jr::load2(L + 162) + L[173] * jr::load2(L + 174) + L[184] * jr::load2(L + 185) + L[194] * jr::load2(L + 195) + L[203] * jr::load2(L + 204) + L[211] * jr::load2(L + 212) + L[218] * jr::load2(L + 219);
+      jr::store2(L + 225, (jr::load2(L + 225) - s) * Dinv[24]);
     }
     {
-      double s = L[4] * L[6] + L[13] * L[15] + L[21] * L[23] + L[32] * L[34] + L[42] * L[44] + L[51] * L[53] + L[59] * L[61] + L[70] * L[72];
-      s += L[80] * L[82] + L[89] * L[91] + L[97] * L[99] + L[104] * L[106] + L[116] * L[118] + L[127] * L[129] + L[137] * L[139] + L[146] * L[148];
-      s += L[154] * L[156] + L[161] * L[163] + L[173] * L[175] + L[184] * L[186] + L[194] * L[196] + L[203] * L[205] + L[211] * L[213] + L[218] * L[220];
-      L[226] = (L[226] - s) * Dinv[24];
-    }
-    {
-      double s = L[4] * L[7] + L[13] * L[16] + L[21] * L[24] + L[32] * L[35] + L[42] * L[45] + L[51] * L[54] + L[59] * L[62] + L[70] * L[73];
-      s += L[80] * L[83] + L[89] * L[92] + L[97] * L[100] + L[104] * L[107] + L[116] * L[119] + L[127] * L[130] + L[137] * L[140] + L[146] * L[149];
-      s += L[154] * L[157] + L[161] * L[164] + L[173] * L[176] + L[184] * L[187] + L[194] * L[197] + L[203] * L[206] + L[211] * L[214] + L[218] * L[221];
-      L[227] = (L[227] - s) * Dinv[24];
-    }
-    {
-      double s = L[4] * L[8] + L[13] * L[17] + L[21] * L[25] + L[32] * L[36] + L[42] * L[46] + L[51] * L[55] + L[59] * L[63] + L[70] * L[74];
-      s += L[80] * L[84] + L[89] * L[93] + L[97] * L[101] + L[104] * L[108] + L[116] * L[120] + L[127] * L[131] + L[137] * L[141] + L[146] * L[150];
-      s += L[154] * L[158] + L[161] * L[165] + L[173] * L[177] + L[184] * L[188] + L[194] * L[198] + L[203] * L[207] + L[211] * L[215] + L[218] * L[222];
-      L[228] = (L[228] - s) * Dinv[24];
+      jr::v2d s = L[4] * jr::load2(L + 7) + L[13] * jr::load2(L + 16) + L[21] * jr::load2(L + 24) + L[32] * jr::load2(L + 35) + L[42] * jr::load2(L + 45) + L[51] * jr::load2(L + 54) + L[59] * jr::load2(L + 62) + L[70] * jr::load2(L + 73);
+      s += L[80] * jr::load2(L + 83) + L[89] * jr::load2(L + 92) + L[97] * jr::load2(L + 100) + L[104] * jr::load2(L + 107) + L[116] * jr::load2(L + 119) + L[127] * jr::load2(L + 130) + L[137] * jr::load2(L + 140) + L[146] * jr::load2(L + 149);
+      s += L[154] * jr::load2(L + 157) + L[161] * jr::load2(L + 164) + L[173] * jr::load2(L + 176) + L[184] * jr::load2(L + 187) + L[194] * jr::load2(L + 197) + L[203] * jr::load2(L + 206) + L[211] * jr::load2(L + 214) + L[218] * jr::load2(L + 221);
+      jr::store2(L + 227, (jr::load2(L + 227) - s) * Dinv[24]);
     }
     {
       double s = L[4] * L[9] + L[13] * L[18] + L[21] * L[26] + L[32] * L[37] + L[42] * L[47] + L[51] * L[56] + L[59] * L[64] + L[70] * L[75];
@@ -696,32 +578,18 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     L[230] = std::sqrt(d);
     Dinv[25] = 1.0 / L[230];
     {
-      double s = L[5] * L[6] + L[14] * L[15] + L[22] * L[23] + L[33] * L[34] + L[43] * L[44] + L[52] * L[53] + L[60] * L[61] + L[71] * L[72];
-      s += L[81] * L[82] + L[90] * L[91] + L[98] * L[99] + L[105] * L[106] + L[117] * L[118] + L[128] * L[129] + L[138] * L[139] + L[147] * L[148];
-      s += L[155] * L[156] + L[162] * L[163] + L[174] * L[175] + L[185] * L[186] + L[195] * L[196] + L[204] * L[205] + L[212] * L[213] + L[219] * L[220];
-      s += L[225] * L[226];
-      L[231] = (L[231] - s) * Dinv[25];
+      jr::v2d s = L[5] * jr::load2(L + 6) + L[14] * jr::load2(L + 15) + L[22] * jr::load2(L + 23) + L[33] * jr::load2(L + 34) + L[43] * jr::load2(L + 44) + L[52] * jr::load2(L + 53) + L[60] * jr::load2(L + 61) + L[71] * jr::load2(L + 72);
+      s += L[81] * jr::load2(L + 82) + L[90] * jr::load2(L + 91) + L[98] * jr::load2(L + 99) + L[105] * jr::load2(L + 106) + L[117] * jr::load2(L + 118) + L[128] * jr::load2(L + 129) + L[138] * jr::load2(L + 139) + L[147] * jr::load2(L + 148);
+      s += L[155] * jr::load2(L + 156) + L[162] * jr::load2(L + 163) + L[174] * jr::load2(L + 175) + L[185] * jr::load2(L + 186) + L[195] * jr::load2(L + 196) + L[204] * jr::load2(L + 205) + L[212] * jr::load2(L + 213) + L[219] * jr::load2(L + 220);
+      s += L[225] * jr::load2(L + 226);
+      jr::store2(L + 231, (jr::load2(L + 231) - s) * Dinv[25]);
     }
     {
-      double s = L[5] * L[7] + L[14] * L[16] + L[22] * L[24] + L[33] * L[35] + L[43] * L[45] + L[52] * L[54] + L[60] * L[62] + L[71] * L[73];
-      s += L[81] * L[83] + L[90] * L[92] + L[98] * L[100] + L[105] * L[107] + L[117] * L[119] + L[128] * L[130] + L[138] * L[140] + L[147] * L[149];
-      s += L[155] * L[157] + L[162] * L[164] + L[174] * L[176] + L[185] * L[187] + L[195] * L[197] + L[204] * L[206] + L[212] * L[214] + L[219] * L[221];
-      s += L[225] * L[227];
-      L[232] = (L[232] - s) * Dinv[25];
-    }
-    {
-      double s = L[5] * L[8] + L[14] * L[17] + L[22] * L[25] + L[33] * L[36] + L[43] * L[46] + L[52] * L[55] + L[60] * L[63] + L[71] * L[74];
-      s += L[81] * L[84] + L[90] * L[93] + L[98] * L[101] + L[105] * L[108] + L[117] * L[120] + L[128] * L[131] + L[138] * L[141] + L[147] * L[150];
-      s += L[155] * L[158] + L[162] * L[165] + L[174] * L[177] + L[185] * L[188] + L[195] * L[198] + L[204] * L[207] + L[212] * L[215] + L[219] * L[222];
-      s += L[225] * L[228];
-      L[233] = (L[233] - s) * Dinv[25];
-    }
-    {
-      double s = L[5] * L[9] + L[14] * L[18] + L[22] * L[26] + L[33] * L[37] + L[43] * L[47] + L[52] * L[56] + L[60] * L[64] + L[71] * L[75];
-      s += L[81] * L[85] + L[90] * L[94] + L[98] * L[102] + L[105] * L[109] + L[117] * L[121] + L[128] * L[132] + L[138] * L[142] + L[147] * L[151];
-      s += L[155] * L[159] + L[162] * L[166] + L[174] * L[178] + L[185] * L[189] + L[195] * L[199] + L[204] * L[208] + L[212] * L[216] + L[219] * L[223];
-      s += L[225] * L[229];
-      L[234] = (L[234] - s) * Dinv[25];
+      jr::v2d s = L[5] * jr::load2(L + 8) + L[14] * jr::load2(L + 17) + L[22] * jr::load2(L + 25) + L[33] * jr::load2(L + 36) + L[43] * jr::load2(L + 46) + L[52] * jr::load2(L + 55) + L[60] * jr::load2(L + 63) + L[71] * jr::load2(L + 74);
+      s += L[81] * jr::load2(L + 84) + L[90] * jr::load2(L + 93) + L[98] * jr::load2(L + 101) + L[105] * jr::load2(L + 108) + L[117] * jr::load2(L + 120) + L[128] * jr::load2(L + 131) + L[138] * jr::load2(L + 141) + L[147] * jr::load2(L + 150);
+      s += L[155] * jr::load2(L + 158) + L[162] * jr::load2(L + 165) + L[174] * jr::load2(L + 177) + L[185] * jr::load2(L + 188) + L[195] * jr::load2(L + 198) + L[204] * jr::load2(L + 207) + L[212] * jr::load2(L + 215) + L[219] * jr::load2(L + 222);
+      s += L[225] * jr::load2(L + 228);
+      jr::store2(L + 233, (jr::load2(L + 233) - s) * Dinv[25]);
     }
   }
   // column 26: joint 'floating_base' (coordinate 3 of 6); 26 descendant(s), 3 ancestor row(s)
@@ -735,18 +603,11 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     L[235] = std::sqrt(d);
     Dinv[26] = 1.0 / L[235];
     {
-      double s = L[6] * L[7] + L[15] * L[16] + L[23] * L[24] + L[34] * L[35] + L[44] * L[45] + L[53] * L[54] + L[61] * L[62] + L[72] * L[73];
-      s += L[82] * L[83] + L[91] * L[92] + L[99] * L[100] + L[106] * L[107] + L[118] * L[119] + L[129] * L[130] + L[139] * L[140] + L[148] * L[149];
-      s += L[156] * L[157] + L[163] * L[164] + L[175] * L[176] + L[186] * L[187] + L[196] * L[197] + L[205] * L[206] + L[213] * L[214] + L[220] * L[221];
-      s += L[226] * L[227] + L[231] * L[232];
-      L[236] = (L[236] - s) * Dinv[26];
-    }
-    {
-      double s = L[6] * L[8] + L[15] * L[17] + L[23] * L[25] + L[34] * L[36] + L[44] * L[46] + L[53] * L[55] + L[61] * L[63] + L[72] * L[74];
-      s += L[82] * L[84] + L[91] * L[93] + L[99] * L[101] + L[106] * L[108] + L[118] * L[120] + L[129] * L[131] + L[139] * L[141] + L[148] * L[150];
-      s += L[156] * L[158] + L[163] * L[165] + L[175] * L[177] + L[186] * L[188] + L[196] * L[198] + L[205] * L[207] + L[213] * L[215] + L[220] * L[222];
-      s += L[226] * L[228] + L[231] * L[233];
-      L[237] = (L[237] - s) * Dinv[26];
+      jr::v2d s = L[6] * jr::load2(L + 7) + L[15] * jr::load2(L + 16) + L[23] * jr::load2(L + 24) + L[34] * jr::load2(L + 35) + L[44] * jr::load2(L + 45) + L[53] * jr::load2(L + 54) + L[61] * jr::load2(L + 62) + L[72] * jr::load2(L + 73);
+      s += L[82] * jr::load2(L + 83) + L[91] * jr::load2(L + 92) + L[99] * jr::load2(L + 100) + L[106] * jr::load2(L + 107) + L[118] * jr::load2(L + 119) + L[129] * jr::load2(L + 130) + L[139] * jr::load2(L + 140) + L[148] * jr::load2(L + 149);
+      s += L[156] * jr::load2(L + 157) + L[163] * jr::load2(L + 164) + L[175] * jr::load2(L + 176) + L[186] * jr::load2(L + 187) + L[196] * jr::load2(L + 197) + L[205] * jr::load2(L + 206) + L[213] * jr::load2(L + 214) + L[220] * jr::load2(L + 221);
+      s += L[226] * jr::load2(L + 227) + L[231] * jr::load2(L + 232);
+      jr::store2(L + 236, (jr::load2(L + 236) - s) * Dinv[26]);
     }
     {
       double s = L[6] * L[9] + L[15] * L[18] + L[23] * L[26] + L[34] * L[37] + L[44] * L[47] + L[53] * L[56] + L[61] * L[64] + L[72] * L[75];
@@ -767,18 +628,11 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     L[239] = std::sqrt(d);
     Dinv[27] = 1.0 / L[239];
     {
-      double s = L[7] * L[8] + L[16] * L[17] + L[24] * L[25] + L[35] * L[36] + L[45] * L[46] + L[54] * L[55] + L[62] * L[63] + L[73] * L[74];
-      s += L[83] * L[84] + L[92] * L[93] + L[100] * L[101] + L[107] * L[108] + L[119] * L[120] + L[130] * L[131] + L[140] * L[141] + L[149] * L[150];
-      s += L[157] * L[158] + L[164] * L[165] + L[176] * L[177] + L[187] * L[188] + L[197] * L[198] + L[206] * L[207] + L[214] * L[215] + L[221] * L[222];
-      s += L[227] * L[228] + L[232] * L[233] + L[236] * L[237];
-      L[240] = (L[240] - s) * Dinv[27];
-    }
-    {
-      double s = L[7] * L[9] + L[16] * L[18] + L[24] * L[26] + L[35] * L[37] + L[45] * L[47] + L[54] * L[56] + L[62] * L[64] + L[73] * L[75];
-      s += L[83] * L[85] + L[92] * L[94] + L[100] * L[102] + L[107] * L[109] + L[119] * L[121] + L[130] * L[132] + L[140] * L[142] + L[149] * L[151];
-      s += L[157] * L[159] + L[164] * L[166] + L[176] * L[178] + L[187] * L[189] + L[197] * L[199] + L[206] * L[208] + L[214] * L[216] + L[221] * L[223];
-      s += L[227] * L[229] + L[232] * L[234] + L[236] * L[238];
-      L[241] = (L[241] - s) * Dinv[27];
+      jr::v2d s = L[7] * jr::load2(L + 8) + L[16] * jr::load2(L + 17) + L[24] * jr::load2(L + 25) + L[35] * jr::load2(L + 36) + L[45] * jr::load2(L + 46) + L[54] * jr::load2(L + 55) + L[62] * jr::load2(L + 63) + L[73] * jr::load2(L + 74);
+      s += L[83] * jr::load2(L + 84) + L[92] * jr::load2(L + 93) + L[100] * jr::load2(L + 101) + L[107] * jr::load2(L + 108) + L[119] * jr::load2(L + 120) + L[130] * jr::load2(L + 131) + L[140] * jr::load2(L + 141) + L[149] * jr::load2(L + 150);
+      s += L[157] * jr::load2(L + 158) + L[164] * jr::load2(L + 165) + L[176] * jr::load2(L + 177) + L[187] * jr::load2(L + 188) + L[197] * jr::load2(L + 198) + L[206] * jr::load2(L + 207) + L[214] * jr::load2(L + 215) + L[221] * jr::load2(L + 222);
+      s += L[227] * jr::load2(L + 228) + L[232] * jr::load2(L + 233) + L[236] * jr::load2(L + 237);
+      jr::store2(L + 240, (jr::load2(L + 240) - s) * Dinv[27]);
     }
   }
   // column 28: joint 'floating_base' (coordinate 5 of 6); 28 descendant(s), 1 ancestor row(s)
@@ -824,14 +678,10 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[217])) return not_positive_definite(0, d);
     L[0] = std::sqrt(d);
     Dinv[0] = 1.0 / L[0];
-    L[1] = M[218] * Dinv[0];
-    L[2] = M[219] * Dinv[0];
-    L[3] = M[216] * Dinv[0];
-    L[4] = M[210] * Dinv[0];
-    L[5] = M[211] * Dinv[0];
-    L[6] = M[212] * Dinv[0];
-    L[7] = M[213] * Dinv[0];
-    L[8] = M[214] * Dinv[0];
+    jr::store2(L + 1, jr::set2(M[218], M[219]) * Dinv[0]);
+    jr::store2(L + 3, jr::set2(M[216], M[210]) * Dinv[0]);
+    jr::store2(L + 5, jr::set2(M[211], M[212]) * Dinv[0]);
+    jr::store2(L + 7, jr::set2(M[213], M[214]) * Dinv[0]);
     L[9] = M[215] * Dinv[0];
   }
   // column 1: joint 'neck' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
@@ -840,14 +690,10 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[248])) return not_positive_definite(1, d);
     L[10] = std::sqrt(d);
     Dinv[1] = 1.0 / L[10];
-    L[11] = (M[249] - L[1] * L[2]) * Dinv[1];
-    L[12] = (M[246] - L[1] * L[3]) * Dinv[1];
-    L[13] = (M[240] - L[1] * L[4]) * Dinv[1];
-    L[14] = (M[241] - L[1] * L[5]) * Dinv[1];
-    L[15] = (M[242] - L[1] * L[6]) * Dinv[1];
-    L[16] = (M[243] - L[1] * L[7]) * Dinv[1];
-    L[17] = (M[244] - L[1] * L[8]) * Dinv[1];
-    L[18] = (M[245] - L[1] * L[9]) * Dinv[1];
+    jr::store2(L + 11, (jr::set2(M[249], M[246]) - L[1] * jr::load2(L + 2)) * Dinv[1]);
+    jr::store2(L + 13, (jr::set2(M[240], M[241]) - L[1] * jr::load2(L + 4)) * Dinv[1]);
+    jr::store2(L + 15, (jr::set2(M[242], M[243]) - L[1] * jr::load2(L + 6)) * Dinv[1]);
+    jr::store2(L + 17, (jr::set2(M[244], M[245]) - L[1] * jr::load2(L + 8)) * Dinv[1]);
   }
   // column 2: joint 'neck' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
   {
@@ -855,12 +701,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[279])) return not_positive_definite(2, d);
     L[19] = std::sqrt(d);
     Dinv[2] = 1.0 / L[19];
-    L[20] = (M[276] - (L[2] * L[3] + L[11] * L[12])) * Dinv[2];
-    L[21] = (M[270] - (L[2] * L[4] + L[11] * L[13])) * Dinv[2];
-    L[22] = (M[271] - (L[2] * L[5] + L[11] * L[14])) * Dinv[2];
-    L[23] = (M[272] - (L[2] * L[6] + L[11] * L[15])) * Dinv[2];
-    L[24] = (M[273] - (L[2] * L[7] + L[11] * L[16])) * Dinv[2];
-    L[25] = (M[274] - (L[2] * L[8] + L[11] * L[17])) * Dinv[2];
+    jr::store2(L + 20, (jr::set2(M[276], M[270]) - (L[2] * jr::load2(L + 3) + L[11] * jr::load2(L + 12))) * Dinv[2]);
+    jr::store2(L + 22, (jr::set2(M[271], M[272]) - (L[2] * jr::load2(L + 5) + L[11] * jr::load2(L + 14))) * Dinv[2]);
+    jr::store2(L + 24, (jr::set2(M[273], M[274]) - (L[2] * jr::load2(L + 7) + L[11] * jr::load2(L + 16))) * Dinv[2]);
     L[26] = (M[275] - (L[2] * L[9] + L[11] * L[18])) * Dinv[2];
   }
   // column 3: joint 'left_elbow'; 0 descendant(s), 10 ancestor row(s)
@@ -869,16 +712,11 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[403])) return not_positive_definite(3, d);
     L[27] = std::sqrt(d);
     Dinv[3] = 1.0 / L[27];
-    L[28] = M[400] * Dinv[3];
-    L[29] = M[401] * Dinv[3];
-    L[30] = M[402] * Dinv[3];
-    L[31] = M[396] * Dinv[3];
-    L[32] = M[390] * Dinv[3];
-    L[33] = M[391] * Dinv[3];
-    L[34] = M[392] * Dinv[3];
-    L[35] = M[393] * Dinv[3];
-    L[36] = M[394] * Dinv[3];
-    L[37] = M[395] * Dinv[3];
+    jr::store2(L + 28, jr::set2(M[400], M[401]) * Dinv[3]);
+    jr::store2(L + 30, jr::set2(M[402], M[396]) * Dinv[3]);
+    jr::store2(L + 32, jr::set2(M[390], M[391]) * Dinv[3]);
+    jr::store2(L + 34, jr::set2(M[392], M[393]) * Dinv[3]);
+    jr::store2(L + 36, jr::set2(M[394], M[395]) * Dinv[3]);
   }
   // column 4: joint 'left_shoulder' (coordinate 1 of 3); 1 descendant(s), 9 ancestor row(s)
   {
@@ -886,14 +724,10 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[310])) return not_positive_definite(4, d);
     L[38] = std::sqrt(d);
     Dinv[4] = 1.0 / L[38];
-    L[39] = (M[311] - L[28] * L[29]) * Dinv[4];
-    L[40] = (M[312] - L[28] * L[30]) * Dinv[4];
-    L[41] = (M[306] - L[28] * L[31]) * Dinv[4];
-    L[42] = (M[300] - L[28] * L[32]) * Dinv[4];
-    L[43] = (M[301] - L[28] * L[33]) * Dinv[4];
-    L[44] = (M[302] - L[28] * L[34]) * Dinv[4];
-    L[45] = (M[303] - L[28] * L[35]) * Dinv[4];
-    L[46] = (M[304] - L[28] * L[36]) * Dinv[4];
+    jr::store2(L + 39, (jr::set2(M[311], M[312]) - L[28] * jr::load2(L + 29)) * Dinv[4]);
+    jr::store2(L + 41, (jr::set2(M[306], M[300]) - L[28] * jr::load2(L + 31)) * Dinv[4]);
+    jr::store2(L + 43, (jr::set2(M[301], M[302]) - L[28] * jr::load2(L + 33)) * Dinv[4]);
+    jr::store2(L + 45, (jr::set2(M[303], M[304]) - L[28] * jr::load2(L + 35)) * Dinv[4]);
     L[47] = (M[305] - L[28] * L[37]) * Dinv[4];
   }
   // column 5: joint 'left_shoulder' (coordinate 2 of 3); 2 descendant(s), 8 ancestor row(s)
@@ -902,14 +736,10 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[341])) return not_positive_definite(5, d);
     L[48] = std::sqrt(d);
     Dinv[5] = 1.0 / L[48];
-    L[49] = (M[342] - (L[29] * L[30] + L[39] * L[40])) * Dinv[5];
-    L[50] = (M[336] - (L[29] * L[31] + L[39] * L[41])) * Dinv[5];
-    L[51] = (M[330] - (L[29] * L[32] + L[39] * L[42])) * Dinv[5];
-    L[52] = (M[331] - (L[29] * L[33] + L[39] * L[43])) * Dinv[5];
-    L[53] = (M[332] - (L[29] * L[34] + L[39] * L[44])) * Dinv[5];
-    L[54] = (M[333] - (L[29] * L[35] + L[39] * L[45])) * Dinv[5];
-    L[55] = (M[334] - (L[29] * L[36] + L[39] * L[46])) * Dinv[5];
-    L[56] = (M[335] - (L[29] * L[37] + L[39] * L[47])) * Dinv[5];
+    jr::store2(L + 49, (jr::set2(M[342], M[336]) - (L[29] * jr::load2(L + 30) + L[39] * jr::load2(L + 40))) * Dinv[5]);
+    jr::store2(L + 51, (jr::set2(M[330], M[331]) - (L[29] * jr::load2(L + 32) + L[39] * jr::load2(L + 42))) * Dinv[5]);
+    jr::store2(L + 53, (jr::set2(M[332], M[333]) - (L[29] * jr::load2(L + 34) + L[39] * jr::load2(L + 44))) * Dinv[5]);
+    jr::store2(L + 55, (jr::set2(M[334], M[335]) - (L[29] * jr::load2(L + 36) + L[39] * jr::load2(L + 46))) * Dinv[5]);
   }
   // column 6: joint 'left_shoulder' (coordinate 3 of 3); 3 descendant(s), 7 ancestor row(s)
   {
@@ -917,12 +747,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[372])) return not_positive_definite(6, d);
     L[57] = std::sqrt(d);
     Dinv[6] = 1.0 / L[57];
-    L[58] = (M[366] - (L[30] * L[31] + L[40] * L[41] + L[49] * L[50])) * Dinv[6];
-    L[59] = (M[360] - (L[30] * L[32] + L[40] * L[42] + L[49] * L[51])) * Dinv[6];
-    L[60] = (M[361] - (L[30] * L[33] + L[40] * L[43] + L[49] * L[52])) * Dinv[6];
-    L[61] = (M[362] - (L[30] * L[34] + L[40] * L[44] + L[49] * L[53])) * Dinv[6];
-    L[62] = (M[363] - (L[30] * L[35] + L[40] * L[45] + L[49] * L[54])) * Dinv[6];
-    L[63] = (M[364] - (L[30] * L[36] + L[40] * L[46] + L[49] * L[55])) * Dinv[6];
+    jr::store2(L + 58, (jr::set2(M[366], M[360]) - (L[30] * jr::load2(L + 31) + L[40] * jr::load2(L + 41) + L[49] * jr::load2(L + 50))) * Dinv[6]);
+    jr::store2(L + 60, (jr::set2(M[361], M[362]) - (L[30] * jr::load2(L + 33) + L[40] * jr::load2(L + 43) + L[49] * jr::load2(L + 52))) * Dinv[6]);
+    jr::store2(L + 62, (jr::set2(M[363], M[364]) - (L[30] * jr::load2(L + 35) + L[40] * jr::load2(L + 45) + L[49] * jr::load2(L + 54))) * Dinv[6]);
     L[64] = (M[365] - (L[30] * L[37] + L[40] * L[47] + L[49] * L[56])) * Dinv[6];
   }
   // column 7: joint 'right_elbow'; 0 descendant(s), 10 ancestor row(s)
@@ -931,16 +758,11 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[527])) return not_positive_definite(7, d);
     L[65] = std::sqrt(d);
     Dinv[7] = 1.0 / L[65];
-    L[66] = M[524] * Dinv[7];
-    L[67] = M[525] * Dinv[7];
-    L[68] = M[526] * Dinv[7];
-    L[69] = M[516] * Dinv[7];
-    L[70] = M[510] * Dinv[7];
-    L[71] = M[511] * Dinv[7];
-    L[72] = M[512] * Dinv[7];
-    L[73] = M[513] * Dinv[7];
-    L[74] = M[514] * Dinv[7];
-    L[75] = M[515] * Dinv[7];
+    jr::store2(L + 66, jr::set2(M[524], M[525]) * Dinv[7]);
+    jr::store2(L + 68, jr::set2(M[526], M[516]) * Dinv[7]);
+    jr::store2(L + 70, jr::set2(M[510], M[511]) * Dinv[7]);
+    jr::store2(L + 72, jr::set2(M[512], M[513]) * Dinv[7]);
+    jr::store2(L + 74, jr::set2(M[514], M[515]) * Dinv[7]);
   }
   // column 8: joint 'right_shoulder' (coordinate 1 of 3); 1 descendant(s), 9 ancestor row(s)
   {
@@ -948,14 +770,10 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[434])) return not_positive_definite(8, d);
     L[76] = std::sqrt(d);
     Dinv[8] = 1.0 / L[76];
-    L[77] = (M[435] - L[66] * L[67]) * Dinv[8];
-    L[78] = (M[436] - L[66] * L[68]) * Dinv[8];
-    L[79] = (M[426] - L[66] * L[69]) * Dinv[8];
-    L[80] = (M[420] - L[66] * L[70]) * Dinv[8];
-    L[81] = (M[421] - L[66] * L[71]) * Dinv[8];
-    L[82] = (M[422] - L[66] * L[72]) * Dinv[8];
-    L[83] = (M[423] - L[66] * L[73]) * Dinv[8];
-    L[84] = (M[424] - L[66] * L[74]) * Dinv[8];
+    jr::store2(L + 77, (jr::set2(M[435], M[436]) - L[66] * jr::load2(L + 67)) * Dinv[8]);
+    jr::store2(L + 79, (jr::set2(M[426], M[420]) - L[66] * jr::load2(L + 69)) * Dinv[8]);
+    jr::store2(L + 81, (jr::set2(M[421], M[422]) - L[66] * jr::load2(L + 71)) * Dinv[8]);
+    jr::store2(L + 83, (jr::set2(M[423], M[424]) - L[66] * jr::load2(L + 73)) * Dinv[8]);
     L[85] = (M[425] - L[66] * L[75]) * Dinv[8];
   }
   // column 9: joint 'right_shoulder' (coordinate 2 of 3); 2 descendant(s), 8 ancestor row(s)
@@ -964,14 +782,10 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[465])) return not_positive_definite(9, d);
     L[86] = std::sqrt(d);
     Dinv[9] = 1.0 / L[86];
-    L[87] = (M[466] - (L[67] * L[68] + L[77] * L[78])) * Dinv[9];
-    L[88] = (M[456] - (L[67] * L[69] + L[77] * L[79])) * Dinv[9];
-    L[89] = (M[450] - (L[67] * L[70] + L[77] * L[80])) * Dinv[9];
-    L[90] = (M[451] - (L[67] * L[71] + L[77] * L[81])) * Dinv[9];
-    L[91] = (M[452] - (L[67] * L[72] + L[77] * L[82])) * Dinv[9];
-    L[92] = (M[453] - (L[67] * L[73] + L[77] * L[83])) * Dinv[9];
-    L[93] = (M[454] - (L[67] * L[74] + L[77] * L[84])) * Dinv[9];
-    L[94] = (M[455] - (L[67] * L[75] + L[77] * L[85])) * Dinv[9];
+    jr::store2(L + 87, (jr::set2(M[466], M[456]) - (L[67] * jr::load2(L + 68) + L[77] * jr::load2(L + 78))) * Dinv[9]);
+    jr::store2(L + 89, (jr::set2(M[450], M[451]) - (L[67] * jr::load2(L + 70) + L[77] * jr::load2(L + 80))) * Dinv[9]);
+    jr::store2(L + 91, (jr::set2(M[452], M[453]) - (L[67] * jr::load2(L + 72) + L[77] * jr::load2(L + 82))) * Dinv[9]);
+    jr::store2(L + 93, (jr::set2(M[454], M[455]) - (L[67] * jr::load2(L + 74) + L[77] * jr::load2(L + 84))) * Dinv[9]);
   }
   // column 10: joint 'right_shoulder' (coordinate 3 of 3); 3 descendant(s), 7 ancestor row(s)
   {
@@ -979,12 +793,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[496])) return not_positive_definite(10, d);
     L[95] = std::sqrt(d);
     Dinv[10] = 1.0 / L[95];
-    L[96] = (M[486] - (L[68] * L[69] + L[78] * L[79] + L[87] * L[88])) * Dinv[10];
-    L[97] = (M[480] - (L[68] * L[70] + L[78] * L[80] + L[87] * L[89])) * Dinv[10];
-    L[98] = (M[481] - (L[68] * L[71] + L[78] * L[81] + L[87] * L[90])) * Dinv[10];
-    L[99] = (M[482] - (L[68] * L[72] + L[78] * L[82] + L[87] * L[91])) * Dinv[10];
-    L[100] = (M[483] - (L[68] * L[73] + L[78] * L[83] + L[87] * L[92])) * Dinv[10];
-    L[101] = (M[484] - (L[68] * L[74] + L[78] * L[84] + L[87] * L[93])) * Dinv[10];
+    jr::store2(L + 96, (jr::set2(M[486], M[480]) - (L[68] * jr::load2(L + 69) + L[78] * jr::load2(L + 79) + L[87] * jr::load2(L + 88))) * Dinv[10]);
+    jr::store2(L + 98, (jr::set2(M[481], M[482]) - (L[68] * jr::load2(L + 71) + L[78] * jr::load2(L + 81) + L[87] * jr::load2(L + 90))) * Dinv[10]);
+    jr::store2(L + 100, (jr::set2(M[483], M[484]) - (L[68] * jr::load2(L + 73) + L[78] * jr::load2(L + 83) + L[87] * jr::load2(L + 92))) * Dinv[10]);
     L[102] = (M[485] - (L[68] * L[75] + L[78] * L[85] + L[87] * L[94])) * Dinv[10];
   }
   // column 11: joint 'waist_yaw'; 11 descendant(s), 6 ancestor row(s)
@@ -996,34 +807,19 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     L[103] = std::sqrt(d);
     Dinv[11] = 1.0 / L[103];
     {
-      double s = L[3] * L[4] + L[12] * L[13] + L[20] * L[21] + L[31] * L[32] + L[41] * L[42] + L[50] * L[51] + L[58] * L[59] + L[69] * L[70];
-      s += L[79] * L[80] + L[88] * L[89] + L[96] * L[97];
-      L[104] = (M[180] - s) * Dinv[11];
+      jr::v2d s = L[3] * jr::load2(L + 4) + L[12] * jr::load2(L + 13) + L[20] * jr::load2(L + 21) + L[31] * jr::load2(L + 32) + L[41] * jr::load2(L + 42) + L[50] * jr::load2(L + 51) + L[58] * jr::load2(L + 59) + L[69] * jr::load2(L + 70);
+      s += L[79] * jr::load2(L + 80) + L[88] * jr::load2(L + 89) + L[96] * jr::load2(L + 97);
+      jr::store2(L + 104, (jr::set2(M[180], M[181]) - s) * Dinv[11]);
     }
     {
-      double s = L[3] * L[5] + L[12] * L[14] + L[20] * L[22] + L[31] * L[33] + L[41] * L[43] + L[50] * L[52] + L[58] * L[60] + L[69] * L[71];
-      s += L[79] * L[81] + L[88] * L[90] + L[96] * L[98];
-      L[105] = (M[181] - s) * Dinv[11];
+      jr::v2d s = L[3] * jr::load2(L + 6) + L[12] * jr::load2(L + 15) + L[20] * jr::load2(L + 23) + L[31] * jr::load2(L + 34) + L[41] * jr::load2(L + 44) + L[50] * jr::load2(L + 53) + L[58] * jr::load2(L + 61) + L[69] * jr::load2(L + 72);
+      s += L[79] * jr::load2(L + 82) + L[88] * jr::load2(L + 91) + L[96] * jr::load2(L + 99);
+      jr::store2(L + 106, (jr::set2(M[182], M[183]) - s) * Dinv[11]);
     }
     {
-      double s = L[3] * L[6] + L[12] * L[15] + L[20] * L[23] + L[31] * L[34] + L[41] * L[44] + L[50] * L[53] + L[58] * L[61] + L[69] * L[72];
-      s += L[79] * L[82] + L[88] * L[91] + L[96] * L[99];
-      L[106] = (M[182] - s) * Dinv[11];
-    }
-    {
-      double s = L[3] * L[7] + L[12] * L[16] + L[20] * L[24] + L[31] * L[35] + L[41] * L[45] + L[50] * L[54] + L[58] * L[62] + L[69] * L[73];
-      s += L[79] * L[83] + L[88] * L[92] + L[96] * L[100];
-      L[107] = (M[183] - s) * Dinv[11];
-    }
-    {
-      double s = L[3] * L[8] + L[12] * L[17] + L[20] * L[25] + L[31] * L[36] + L[41] * L[46] + L[50] * L[55] + L[58] * L[63] + L[69] * L[74];
-      s += L[79] * L[84] + L[88] * L[93] + L[96] * L[101];
-      L[108] = (M[184] - s) * Dinv[11];
-    }
-    {
-      double s = L[3] * L[9] + L[12] * L[18] + L[20] * L[26] + L[31] * L[37] + L[41] * L[47] + L[50] * L[56] + L[58] * L[64] + L[69] * L[75];
-      s += L[79] * L[85] + L[88] * L[94] + L[96] * L[102];
-      L[109] = (M[185] - s) * Dinv[11];
+      jr::v2d s = L[3] * jr::load2(L + 8) + L[12] * jr::load2(L + 17) + L[20] * jr::load2(L + 25) + L[31] * jr::load2(L + 36) + L[41] * jr::load2(L + 46) + L[50] * jr::load2(L + 55) + L[58] * jr::load2(L + 63) + L[69] * jr::load2(L + 74);
+      s += L[79] * jr::load2(L + 84) + L[88] * jr::load2(L + 93) + L[96] * jr::load2(L + 101);
+      jr::store2(L + 108, (jr::set2(M[184], M[185]) - s) * Dinv[11]);
     }
   }
   // column 12: joint 'left_ankle_roll'; 0 descendant(s), 11 ancestor row(s)
@@ -1032,16 +828,11 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[713])) return not_positive_definite(12, d);
     L[110] = std::sqrt(d);
     Dinv[12] = 1.0 / L[110];
-    L[111] = M[712] * Dinv[12];
-    L[112] = M[711] * Dinv[12];
-    L[113] = M[708] * Dinv[12];
-    L[114] = M[709] * Dinv[12];
-    L[115] = M[710] * Dinv[12];
-    L[116] = M[690] * Dinv[12];
-    L[117] = M[691] * Dinv[12];
-    L[118] = M[692] * Dinv[12];
-    L[119] = M[693] * Dinv[12];
-    L[120] = M[694] * Dinv[12];
+    jr::store2(L + 111, jr::set2(M[712], M[711]) * Dinv[12]);
+    jr::store2(L + 113, jr::set2(M[708], M[709]) * Dinv[12]);
+    jr::store2(L + 115, jr::set2(M[710], M[690]) * Dinv[12]);
+    jr::store2(L + 117, jr::set2(M[691], M[692]) * Dinv[12]);
+    jr::store2(L + 119, jr::set2(M[693], M[694]) * Dinv[12]);
     L[121] = M[695] * Dinv[12];
   }
   // column 13: joint 'left_ankle_pitch'; 1 descendant(s), 10 ancestor row(s)
@@ -1050,16 +841,11 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[682])) return not_positive_definite(13, d);
     L[122] = std::sqrt(d);
     Dinv[13] = 1.0 / L[122];
-    L[123] = (M[681] - L[111] * L[112]) * Dinv[13];
-    L[124] = (M[678] - L[111] * L[113]) * Dinv[13];
-    L[125] = (M[679] - L[111] * L[114]) * Dinv[13];
-    L[126] = (M[680] - L[111] * L[115]) * Dinv[13];
-    L[127] = (M[660] - L[111] * L[116]) * Dinv[13];
-    L[128] = (M[661] - L[111] * L[117]) * Dinv[13];
-    L[129] = (M[662] - L[111] * L[118]) * Dinv[13];
-    L[130] = (M[663] - L[111] * L[119]) * Dinv[13];
-    L[131] = (M[664] - L[111] * L[120]) * Dinv[13];
-    L[132] = (M[665] - L[111] * L[121]) * Dinv[13];
+    jr::store2(L + 123, (jr::set2(M[681], M[678]) - L[111] * jr::load2(L + 112)) * Dinv[13]);
+    jr::store2(L + 125, (jr::set2(M[679], M[680]) - L[111] * jr::load2(L + 114)) * Dinv[13]);
+    jr::store2(L + 127, (jr::set2(M[660], M[661]) - L[111] * jr::load2(L + 116)) * Dinv[13]);
+    jr::store2(L + 129, (jr::set2(M[662], M[663]) - L[111] * jr::load2(L + 118)) * Dinv[13]);
+    jr::store2(L + 131, (jr::set2(M[664], M[665]) - L[111] * jr::load2(L + 120)) * Dinv[13]);
   }
   // column 14: joint 'left_knee'; 2 descendant(s), 9 ancestor row(s)
   {
@@ -1067,14 +853,10 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[651])) return not_positive_definite(14, d);
     L[133] = std::sqrt(d);
     Dinv[14] = 1.0 / L[133];
-    L[134] = (M[648] - (L[112] * L[113] + L[123] * L[124])) * Dinv[14];
-    L[135] = (M[649] - (L[112] * L[114] + L[123] * L[125])) * Dinv[14];
-    L[136] = (M[650] - (L[112] * L[115] + L[123] * L[126])) * Dinv[14];
-    L[137] = (M[630] - (L[112] * L[116] + L[123] * L[127])) * Dinv[14];
-    L[138] = (M[631] - (L[112] * L[117] + L[123] * L[128])) * Dinv[14];
-    L[139] = (M[632] - (L[112] * L[118] + L[123] * L[129])) * Dinv[14];
-    L[140] = (M[633] - (L[112] * L[119] + L[123] * L[130])) * Dinv[14];
-    L[141] = (M[634] - (L[112] * L[120] + L[123] * L[131])) * Dinv[14];
+    jr::store2(L + 134, (jr::set2(M[648], M[649]) - (L[112] * jr::load2(L + 113) + L[123] * jr::load2(L + 124))) * Dinv[14]);
+    jr::store2(L + 136, (jr::set2(M[650], M[630]) - (L[112] * jr::load2(L + 115) + L[123] * jr::load2(L + 126))) * Dinv[14]);
+    jr::store2(L + 138, (jr::set2(M[631], M[632]) - (L[112] * jr::load2(L + 117) + L[123] * jr::load2(L + 128))) * Dinv[14]);
+    jr::store2(L + 140, (jr::set2(M[633], M[634]) - (L[112] * jr::load2(L + 119) + L[123] * jr::load2(L + 130))) * Dinv[14]);
     L[142] = (M[635] - (L[112] * L[121] + L[123] * L[132])) * Dinv[14];
   }
   // column 15: joint 'left_hip' (coordinate 1 of 3); 3 descendant(s), 8 ancestor row(s)
@@ -1083,14 +865,10 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[558])) return not_positive_definite(15, d);
     L[143] = std::sqrt(d);
     Dinv[15] = 1.0 / L[143];
-    L[144] = (M[559] - (L[113] * L[114] + L[124] * L[125] + L[134] * L[135])) * Dinv[15];
-    L[145] = (M[560] - (L[113] * L[115] + L[124] * L[126] + L[134] * L[136])) * Dinv[15];
-    L[146] = (M[540] - (L[113] * L[116] + L[124] * L[127] + L[134] * L[137])) * Dinv[15];
-    L[147] = (M[541] - (L[113] * L[117] + L[124] * L[128] + L[134] * L[138])) * Dinv[15];
-    L[148] = (M[542] - (L[113] * L[118] + L[124] * L[129] + L[134] * L[139])) * Dinv[15];
-    L[149] = (M[543] - (L[113] * L[119] + L[124] * L[130] + L[134] * L[140])) * Dinv[15];
-    L[150] = (M[544] - (L[113] * L[120] + L[124] * L[131] + L[134] * L[141])) * Dinv[15];
-    L[151] = (M[545] - (L[113] * L[121] + L[124] * L[132] + L[134] * L[142])) * Dinv[15];
+    jr::store2(L + 144, (jr::set2(M[559], M[560]) - (L[113] * jr::load2(L + 114) + L[124] * jr::load2(L + 125) + L[134] * jr::load2(L + 135))) * Dinv[15]);
+    jr::store2(L + 146, (jr::set2(M[540], M[541]) - (L[113] * jr::load2(L + 116) + L[124] * jr::load2(L + 127) + L[134] * jr::load2(L + 137))) * Dinv[15]);
+    jr::store2(L + 148, (jr::set2(M[542], M[543]) - (L[113] * jr::load2(L + 118) + L[124] * jr::load2(L + 129) + L[134] * jr::load2(L + 139))) * Dinv[15]);
+    jr::store2(L + 150, (jr::set2(M[544], M[545]) - (L[113] * jr::load2(L + 120) + L[124] * jr::load2(L + 131) + L[134] * jr::load2(L + 141))) * Dinv[15]);
   }
   // column 16: joint 'left_hip' (coordinate 2 of 3); 4 descendant(s), 7 ancestor row(s)
   {
@@ -1098,12 +876,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[589])) return not_positive_definite(16, d);
     L[152] = std::sqrt(d);
     Dinv[16] = 1.0 / L[152];
-    L[153] = (M[590] - (L[114] * L[115] + L[125] * L[126] + L[135] * L[136] + L[144] * L[145])) * Dinv[16];
-    L[154] = (M[570] - (L[114] * L[116] + L[125] * L[127] + L[135] * L[137] + L[144] * L[146])) * Dinv[16];
-    L[155] = (M[571] - (L[114] * L[117] + L[125] * L[128] + L[135] * L[138] + L[144] * L[147])) * Dinv[16];
-    L[156] = (M[572] - (L[114] * L[118] + L[125] * L[129] + L[135] * L[139] + L[144] * L[148])) * Dinv[16];
-    L[157] = (M[573] - (L[114] * L[119] + L[125] * L[130] + L[135] * L[140] + L[144] * L[149])) * Dinv[16];
-    L[158] = (M[574] - (L[114] * L[120] + L[125] * L[131] + L[135] * L[141] + L[144] * L[150])) * Dinv[16];
+    jr::store2(L + 153, (jr::set2(M[590], M[570]) - (L[114] * jr::load2(L + 115) + L[125] * jr::load2(L + 126) + L[135] * jr::load2(L + 136) + L[144] * jr::load2(L + 145))) * Dinv[16]);
+    jr::store2(L + 155, (jr::set2(M[571], M[572]) - (L[114] * jr::load2(L + 117) + L[125] * jr::load2(L + 128) + L[135] * jr::load2(L + 138) + L[144] * jr::load2(L + 147))) * Dinv[16]);
+    jr::store2(L + 157, (jr::set2(M[573], M[574]) - (L[114] * jr::load2(L + 119) + L[125] * jr::load2(L + 130) + L[135] * jr::load2(L + 140) + L[144] * jr::load2(L + 149))) * Dinv[16]);
     L[159] = (M[575] - (L[114] * L[121] + L[125] * L[132] + L[135] * L[142] + L[144] * L[151])) * Dinv[16];
   }
   // column 17: joint 'left_hip' (coordinate 3 of 3); 5 descendant(s), 6 ancestor row(s)
@@ -1112,12 +887,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[620])) return not_positive_definite(17, d);
     L[160] = std::sqrt(d);
     Dinv[17] = 1.0 / L[160];
-    L[161] = (M[600] - (L[115] * L[116] + L[126] * L[127] + L[136] * L[137] + L[145] * L[146] + L[153] * L[154])) * Dinv[17];
-    L[162] = (M[601] - (L[115] * L[117] + L[126] * L[128] + L[136] * L[138] + L[145] * L[147] + L[153] * L[155])) * Dinv[17];
-    L[163] = (M[602] - (L[115] * L[118] + L[126] * L[129] + L[136] * L[139] + L[145] * L[148] + L[153] * L[156])) * Dinv[17];
-    L[164] = (M[603] - (L[115] * L[119] + L[126] * L[130] + L[136] * L[140] + L[145] * L[149] + L[153] * L[157])) * Dinv[17];
-    L[165] = (M[604] - (L[115] * L[120] + L[126] * L[131] + L[136] * L[141] + L[145] * L[150] + L[153] * L[158])) * Dinv[17];
-    L[166] = (M[605] - (L[115] * L[121] + L[126] * L[132] + L[136] * L[142] + L[145] * L[151] + L[153] * L[159])) * Dinv[17];
+    jr::store2(L + 161, (jr::set2(M[600], M[601]) - (L[115] * jr::load2(L + 116) + L[126] * jr::load2(L + 127) + L[136] * jr::load2(L + 137) + L[145] * jr::load2(L + 146) + L[153] * jr::load2(L + 154))) * Dinv[17]);
+    jr::store2(L + 163, (jr::set2(M[602], M[603]) - (L[115] * jr::load2(L + 118) + L[126] * jr::load2(L + 129) + L[136] * jr::load2(L + 139) + L[145] * jr::load2(L + 148) + L[153] * jr::load2(L + 156))) * Dinv[17]);
+    jr::store2(L + 165, (jr::set2(M[604], M[605]) - (L[115] * jr::load2(L + 120) + L[126] * jr::load2(L + 131) + L[136] * jr::load2(L + 141) + L[145] * jr::load2(L + 150) + L[153] * jr::load2(L + 158))) * Dinv[17]);
   }
   // column 18: joint 'right_ankle_roll'; 0 descendant(s), 11 ancestor row(s)
   {
@@ -1125,16 +897,11 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[899])) return not_positive_definite(18, d);
     L[167] = std::sqrt(d);
     Dinv[18] = 1.0 / L[167];
-    L[168] = M[898] * Dinv[18];
-    L[169] = M[897] * Dinv[18];
-    L[170] = M[894] * Dinv[18];
-    L[171] = M[895] * Dinv[18];
-    L[172] = M[896] * Dinv[18];
-    L[173] = M[870] * Dinv[18];
-    L[174] = M[871] * Dinv[18];
-    L[175] = M[872] * Dinv[18];
-    L[176] = M[873] * Dinv[18];
-    L[177] = M[874] * Dinv[18];
+    jr::store2(L + 168, jr::set2(M[898], M[897]) * Dinv[18]);
+    jr::store2(L + 170, jr::set2(M[894], M[895]) * Dinv[18]);
+    jr::store2(L + 172, jr::set2(M[896], M[870]) * Dinv[18]);
+    jr::store2(L + 174, jr::set2(M[871], M[872]) * Dinv[18]);
+    jr::store2(L + 176, jr::set2(M[873], M[874]) * Dinv[18]);
     L[178] = M[875] * Dinv[18];
   }
   // column 19: joint 'right_ankle_pitch'; 1 descendant(s), 10 ancestor row(s)
@@ -1143,16 +910,11 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[868])) return not_positive_definite(19, d);
     L[179] = std::sqrt(d);
     Dinv[19] = 1.0 / L[179];
-    L[180] = (M[867] - L[168] * L[169]) * Dinv[19];
-    L[181] = (M[864] - L[168] * L[170]) * Dinv[19];
-    L[182] = (M[865] - L[168] * L[171]) * Dinv[19];
-    L[183] = (M[866] - L[168] * L[172]) * Dinv[19];
-    L[184] = (M[840] - L[168] * L[173]) * Dinv[19];
-    L[185] = (M[841] - L[168] * L[174]) * Dinv[19];
-    L[186] = (M[842] - L[168] * L[175]) * Dinv[19];
-    L[187] = (M[843] - L[168] * L[176]) * Dinv[19];
-    L[188] = (M[844] - L[168] * L[177]) * Dinv[19];
-    L[189] = (M[845] - L[168] * L[178]) * Dinv[19];
+    jr::store2(L + 180, (jr::set2(M[867], M[864]) - L[168] * jr::load2(L + 169)) * Dinv[19]);
+    jr::store2(L + 182, (jr::set2(M[865], M[866]) - L[168] * jr::load2(L + 171)) * Dinv[19]);
+    jr::store2(L + 184, (jr::set2(M[840], M[841]) - L[168] * jr::load2(L + 173)) * Dinv[19]);
+    jr::store2(L + 186, (jr::set2(M[842], M[843]) - L[168] * jr::load2(L + 175)) * Dinv[19]);
+    jr::store2(L + 188, (jr::set2(M[844], M[845]) - L[168] * jr::load2(L + 177)) * Dinv[19]);
   }
   // column 20: joint 'right_knee'; 2 descendant(s), 9 ancestor row(s)
   {
@@ -1160,14 +922,10 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[837])) return not_positive_definite(20, d);
     L[190] = std::sqrt(d);
     Dinv[20] = 1.0 / L[190];
-    L[191] = (M[834] - (L[169] * L[170] + L[180] * L[181])) * Dinv[20];
-    L[192] = (M[835] - (L[169] * L[171] + L[180] * L[182])) * Dinv[20];
-    L[193] = (M[836] - (L[169] * L[172] + L[180] * L[183])) * Dinv[20];
-    L[194] = (M[810] - (L[169] * L[173] + L[180] * L[184])) * Dinv[20];
-    L[195] = (M[811] - (L[169] * L[174] + L[180] * L[185])) * Dinv[20];
-    L[196] = (M[812] - (L[169] * L[175] + L[180] * L[186])) * Dinv[20];
-    L[197] = (M[813] - (L[169] * L[176] + L[180] * L[187])) * Dinv[20];
-    L[198] = (M[814] - (L[169] * L[177] + L[180] * L[188])) * Dinv[20];
+    jr::store2(L + 191, (jr::set2(M[834], M[835]) - (L[169] * jr::load2(L + 170) + L[180] * jr::load2(L + 181))) * Dinv[20]);
+    jr::store2(L + 193, (jr::set2(M[836], M[810]) - (L[169] * jr::load2(L + 172) + L[180] * jr::load2(L + 183))) * Dinv[20]);
+    jr::store2(L + 195, (jr::set2(M[811], M[812]) - (L[169] * jr::load2(L + 174) + L[180] * jr::load2(L + 185))) * Dinv[20]);
+    jr::store2(L + 197, (jr::set2(M[813], M[814]) - (L[169] * jr::load2(L + 176) + L[180] * jr::load2(L + 187))) * Dinv[20]);
     L[199] = (M[815] - (L[169] * L[178] + L[180] * L[189])) * Dinv[20];
   }
   // column 21: joint 'right_hip' (coordinate 1 of 3); 3 descendant(s), 8 ancestor row(s)
@@ -1176,14 +934,10 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[744])) return not_positive_definite(21, d);
     L[200] = std::sqrt(d);
     Dinv[21] = 1.0 / L[200];
-    L[201] = (M[745] - (L[170] * L[171] + L[181] * L[182] + L[191] * L[192])) * Dinv[21];
-    L[202] = (M[746] - (L[170] * L[172] + L[181] * L[183] + L[191] * L[193])) * Dinv[21];
-    L[203] = (M[720] - (L[170] * L[173] + L[181] * L[184] + L[191] * L[194])) * Dinv[21];
-    L[204] = (M[721] - (L[170] * L[174] + L[181] * L[185] + L[191] * L[195])) * Dinv[21];
-    L[205] = (M[722] - (L[170] * L[175] + L[181] * L[186] + L[191] * L[196])) * Dinv[21];
-    L[206] = (M[723] - (L[170] * L[176] + L[181] * L[187] + L[191] * L[197])) * Dinv[21];
-    L[207] = (M[724] - (L[170] * L[177] + L[181] * L[188] + L[191] * L[198])) * Dinv[21];
-    L[208] = (M[725] - (L[170] * L[178] + L[181] * L[189] + L[191] * L[199])) * Dinv[21];
+    jr::store2(L + 201, (jr::set2(M[745], M[746]) - (L[170] * jr::load2(L + 171) + L[181] * jr::load2(L + 182) + L[191] * jr::load2(L + 192))) * Dinv[21]);
+    jr::store2(L + 203, (jr::set2(M[720], M[721]) - (L[170] * jr::load2(L + 173) + L[181] * jr::load2(L + 184) + L[191] * jr::load2(L + 194))) * Dinv[21]);
+    jr::store2(L + 205, (jr::set2(M[722], M[723]) - (L[170] * jr::load2(L + 175) + L[181] * jr::load2(L + 186) + L[191] * jr::load2(L + 196))) * Dinv[21]);
+    jr::store2(L + 207, (jr::set2(M[724], M[725]) - (L[170] * jr::load2(L + 177) + L[181] * jr::load2(L + 188) + L[191] * jr::load2(L + 198))) * Dinv[21]);
   }
   // column 22: joint 'right_hip' (coordinate 2 of 3); 4 descendant(s), 7 ancestor row(s)
   {
@@ -1191,12 +945,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[775])) return not_positive_definite(22, d);
     L[209] = std::sqrt(d);
     Dinv[22] = 1.0 / L[209];
-    L[210] = (M[776] - (L[171] * L[172] + L[182] * L[183] + L[192] * L[193] + L[201] * L[202])) * Dinv[22];
-    L[211] = (M[750] - (L[171] * L[173] + L[182] * L[184] + L[192] * L[194] + L[201] * L[203])) * Dinv[22];
-    L[212] = (M[751] - (L[171] * L[174] + L[182] * L[185] + L[192] * L[195] + L[201] * L[204])) * Dinv[22];
-    L[213] = (M[752] - (L[171] * L[175] + L[182] * L[186] + L[192] * L[196] + L[201] * L[205])) * Dinv[22];
-    L[214] = (M[753] - (L[171] * L[176] + L[182] * L[187] + L[192] * L[197] + L[201] * L[206])) * Dinv[22];
-    L[215] = (M[754] - (L[171] * L[177] + L[182] * L[188] + L[192] * L[198] + L[201] * L[207])) * Dinv[22];
+    jr::store2(L + 210, (jr::set2(M[776], M[750]) - (L[171] * jr::load2(L + 172) + L[182] * jr::load2(L + 183) + L[192] * jr::load2(L + 193) + L[201] * jr::load2(L + 202))) * Dinv[22]);
+    jr::store2(L + 212, (jr::set2(M[751], M[752]) - (L[171] * jr::load2(L + 174) + L[182] * jr::load2(L + 185) + L[192] * jr::load2(L + 195) + L[201] * jr::load2(L + 204))) * Dinv[22]);
+    jr::store2(L + 214, (jr::set2(M[753], M[754]) - (L[171] * jr::load2(L + 176) + L[182] * jr::load2(L + 187) + L[192] * jr::load2(L + 197) + L[201] * jr::load2(L + 206))) * Dinv[22]);
     L[216] = (M[755] - (L[171] * L[178] + L[182] * L[189] + L[192] * L[199] + L[201] * L[208])) * Dinv[22];
   }
   // column 23: joint 'right_hip' (coordinate 3 of 3); 5 descendant(s), 6 ancestor row(s)
@@ -1205,12 +956,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     if (!(d > kPivotTolerance * M[806])) return not_positive_definite(23, d);
     L[217] = std::sqrt(d);
     Dinv[23] = 1.0 / L[217];
-    L[218] = (M[780] - (L[172] * L[173] + L[183] * L[184] + L[193] * L[194] + L[202] * L[203] + L[210] * L[211])) * Dinv[23];
-    L[219] = (M[781] - (L[172] * L[174] + L[183] * L[185] + L[193] * L[195] + L[202] * L[204] + L[210] * L[212])) * Dinv[23];
-    L[220] = (M[782] - (L[172] * L[175] + L[183] * L[186] + L[193] * L[196] + L[202] * L[205] + L[210] * L[213])) * Dinv[23];
-    L[221] = (M[783] - (L[172] * L[176] + L[183] * L[187] + L[193] * L[197] + L[202] * L[206] + L[210] * L[214])) * Dinv[23];
-    L[222] = (M[784] - (L[172] * L[177] + L[183] * L[188] + L[193] * L[198] + L[202] * L[207] + L[210] * L[215])) * Dinv[23];
-    L[223] = (M[785] - (L[172] * L[178] + L[183] * L[189] + L[193] * L[199] + L[202] * L[208] + L[210] * L[216])) * Dinv[23];
+    jr::store2(L + 218, (jr::set2(M[780], M[781]) - (L[172] * jr::load2(L + 173) + L[183] * jr::load2(L + 184) + L[193] * jr::load2(L + 194) + L[202] * jr::load2(L + 203) + L[210] * jr::load2(L + 211))) * Dinv[23]);
+    jr::store2(L + 220, (jr::set2(M[782], M[783]) - (L[172] * jr::load2(L + 175) + L[183] * jr::load2(L + 186) + L[193] * jr::load2(L + 196) + L[202] * jr::load2(L + 205) + L[210] * jr::load2(L + 213))) * Dinv[23]);
+    jr::store2(L + 222, (jr::set2(M[784], M[785]) - (L[172] * jr::load2(L + 177) + L[183] * jr::load2(L + 188) + L[193] * jr::load2(L + 198) + L[202] * jr::load2(L + 207) + L[210] * jr::load2(L + 215))) * Dinv[23]);
   }
   // column 24: joint 'floating_base' (coordinate 1 of 6); 24 descendant(s), 5 ancestor row(s)
   {
@@ -1222,28 +970,16 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     L[224] = std::sqrt(d);
     Dinv[24] = 1.0 / L[224];
     {
-      double s = L[4] * L[5] + L[13] * L[14] + L[21] * L[22] + L[32] * L[33] + L[42] * L[43] + L[51] * L[52] + L[59] * L[60] + L[70] * L[71];
-      s += L[80] * L[81] + L[89] * L[90] + L[97] * L[98] + L[104] * L[105] + L[116] * L[117] + L[127] * L[128] + L[137] * L[138] + L[146] * L[147];
-      s += L[154] * L[155] + L[161] * L[162] + L[173] * L[174] + L[184] * L[185] + L[194] * L[195] + L[203] * L[204] + L[211] * L[212] + L[218] * L[219];
-      L[225] = (M[1] - s) * Dinv[24];
+      jr::v2d s = L[4] * jr::load2(L + 5) + L[13] * jr::load2(L + 14) + L[21] * jr::load2(L + 22) + L[32] * jr::load2(L + 33) + L[42] * jr::load2(L + 43) + L[51] * jr::load2(L + 52) + L[59] * jr::load2(L + 60) + L[70] * jr::load2(L + 71);
+      s += L[80] * jr::load2(L + 81) + L[89] * jr::load2(L + 90) + L[97] * jr::load2(L + 98) + L[104] * jr::load2(L + 105) + L[116] * jr::load2(L + 117) + L[127] * jr::load2(L + 128) + L[137] * jr::load2(L + 138) + L[146] * jr::load2(L + 147);
+      s += L[154] * jr::load2(L + 155) + L[161] * jr::load2(L + 162) + L[173] * jr::load2(L + 174) + L[184] * jr::load2(L + 185) + L[194] * jr::load2(L + 195) + L[203] * jr::load2(L + 204) + L[211] * jr::load2(L + 212) + L[218] * jr::load2(L + 219);
+      jr::store2(L + 225, (jr::set2(M[1], M[2]) - s) * Dinv[24]);
     }
     {
-      double s = L[4] * L[6] + L[13] * L[15] + L[21] * L[23] + L[32] * L[34] + L[42] * L[44] + L[51] * L[53] + L[59] * L[61] + L[70] * L[72];
-      s += L[80] * L[82] + L[89] * L[91] + L[97] * L[99] + L[104] * L[106] + L[116] * L[118] + L[127] * L[129] + L[137] * L[139] + L[146] * L[148];
-      s += L[154] * L[156] + L[161] * L[163] + L[173] * L[175] + L[184] * L[186] + L[194] * L[196] + L[203] * L[205] + L[211] * L[213] + L[218] * L[220];
-      L[226] = (M[2] - s) * Dinv[24];
-    }
-    {
-      double s = L[4] * L[7] + L[13] * L[16] + L[21] * L[24] + L[32] * L[35] + L[42] * L[45] + L[51] * L[54] + L[59] * L[62] + L[70] * L[73];
-      s += L[80] * L[83] + L[89] * L[92] + L[97] * L[100] + L[104] * L[107] + L[116] * L[119] + L[127] * L[130] + L[137] * L[140] + L[146] * L[149];
-      s += L[154] * L[157] + L[161] * L[164] + L[173] * L[176] + L[184] * L[187] + L[194] * L[197] + L[203] * L[206] + L[211] * L[214] + L[218] * L[221];
-      L[227] = (M[3] - s) * Dinv[24];
-    }
-    {
-      double s = L[4] * L[8] + L[13] * L[17] + L[21] * L[25] + L[32] * L[36] + L[42] * L[46] + L[51] * L[55] + L[59] * L[63] + L[70] * L[74];
-      s += L[80] * L[84] + L[89] * L[93] + L[97] * L[101] + L[104] * L[108] + L[116] * L[120] + L[127] * L[131] + L[137] * L[141] + L[146] * L[150];
-      s += L[154] * L[158] + L[161] * L[165] + L[173] * L[177] + L[184] * L[188] + L[194] * L[198] + L[203] * L[207] + L[211] * L[215] + L[218] * L[222];
-      L[228] = (M[4] - s) * Dinv[24];
+      jr::v2d s = L[4] * jr::load2(L + 7) + L[13] * jr::load2(L + 16) + L[21] * jr::load2(L + 24) + L[32] * jr::load2(L + 35) + L[42] * jr::load2(L + 45) + L[51] * jr::load2(L + 54) + L[59] * jr::load2(L + 62) + L[70] * jr::load2(L + 73);
+      s += L[80] * jr::load2(L + 83) + L[89] * jr::load2(L + 92) + L[97] * jr::load2(L + 100) + L[104] * jr::load2(L + 107) + L[116] * jr::load2(L + 119) + L[127] * jr::load2(L + 130) + L[137] * jr::load2(L + 140) + L[146] * jr::load2(L + 149);
+      s += L[154] * jr::load2(L + 157) + L[161] * jr::load2(L + 164) + L[173] * jr::load2(L + 176) + L[184] * jr::load2(L + 187) + L[194] * jr::load2(L + 197) + L[203] * jr::load2(L + 206) + L[211] * jr::load2(L + 214) + L[218] * jr::load2(L + 221);
+      jr::store2(L + 227, (jr::set2(M[3], M[4]) - s) * Dinv[24]);
     }
     {
       double s = L[4] * L[9] + L[13] * L[18] + L[21] * L[26] + L[32] * L[37] + L[42] * L[47] + L[51] * L[56] + L[59] * L[64] + L[70] * L[75];
@@ -1263,32 +999,18 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     L[230] = std::sqrt(d);
     Dinv[25] = 1.0 / L[230];
     {
-      double s = L[5] * L[6] + L[14] * L[15] + L[22] * L[23] + L[33] * L[34] + L[43] * L[44] + L[52] * L[53] + L[60] * L[61] + L[71] * L[72];
-      s += L[81] * L[82] + L[90] * L[91] + L[98] * L[99] + L[105] * L[106] + L[117] * L[118] + L[128] * L[129] + L[138] * L[139] + L[147] * L[148];
-      s += L[155] * L[156] + L[162] * L[163] + L[174] * L[175] + L[185] * L[186] + L[195] * L[196] + L[204] * L[205] + L[212] * L[213] + L[219] * L[220];
-      s += L[225] * L[226];
-      L[231] = (M[32] - s) * Dinv[25];
+      jr::v2d s = L[5] * jr::load2(L + 6) + L[14] * jr::load2(L + 15) + L[22] * jr::load2(L + 23) + L[33] * jr::load2(L + 34) + L[43] * jr::load2(L + 44) + L[52] * jr::load2(L + 53) + L[60] * jr::load2(L + 61) + L[71] * jr::load2(L + 72);
+      s += L[81] * jr::load2(L + 82) + L[90] * jr::load2(L + 91) + L[98] * jr::load2(L + 99) + L[105] * jr::load2(L + 106) + L[117] * jr::load2(L + 118) + L[128] * jr::load2(L + 129) + L[138] * jr::load2(L + 139) + L[147] * jr::load2(L + 148);
+      s += L[155] * jr::load2(L + 156) + L[162] * jr::load2(L + 163) + L[174] * jr::load2(L + 175) + L[185] * jr::load2(L + 186) + L[195] * jr::load2(L + 196) + L[204] * jr::load2(L + 205) + L[212] * jr::load2(L + 213) + L[219] * jr::load2(L + 220);
+      s += L[225] * jr::load2(L + 226);
+      jr::store2(L + 231, (jr::set2(M[32], M[33]) - s) * Dinv[25]);
     }
     {
-      double s = L[5] * L[7] + L[14] * L[16] + L[22] * L[24] + L[33] * L[35] + L[43] * L[45] + L[52] * L[54] + L[60] * L[62] + L[71] * L[73];
-      s += L[81] * L[83] + L[90] * L[92] + L[98] * L[100] + L[105] * L[107] + L[117] * L[119] + L[128] * L[130] + L[138] * L[140] + L[147] * L[149];
-      s += L[155] * L[157] + L[162] * L[164] + L[174] * L[176] + L[185] * L[187] + L[195] * L[197] + L[204] * L[206] + L[212] * L[214] + L[219] * L[221];
-      s += L[225] * L[227];
-      L[232] = (M[33] - s) * Dinv[25];
-    }
-    {
-      double s = L[5] * L[8] + L[14] * L[17] + L[22] * L[25] + L[33] * L[36] + L[43] * L[46] + L[52] * L[55] + L[60] * L[63] + L[71] * L[74];
-      s += L[81] * L[84] + L[90] * L[93] + L[98] * L[101] + L[105] * L[108] + L[117] * L[120] + L[128] * L[131] + L[138] * L[141] + L[147] * L[150];
-      s += L[155] * L[158] + L[162] * L[165] + L[174] * L[177] + L[185] * L[188] + L[195] * L[198] + L[204] * L[207] + L[212] * L[215] + L[219] * L[222];
-      s += L[225] * L[228];
-      L[233] = (M[34] - s) * Dinv[25];
-    }
-    {
-      double s = L[5] * L[9] + L[14] * L[18] + L[22] * L[26] + L[33] * L[37] + L[43] * L[47] + L[52] * L[56] + L[60] * L[64] + L[71] * L[75];
-      s += L[81] * L[85] + L[90] * L[94] + L[98] * L[102] + L[105] * L[109] + L[117] * L[121] + L[128] * L[132] + L[138] * L[142] + L[147] * L[151];
-      s += L[155] * L[159] + L[162] * L[166] + L[174] * L[178] + L[185] * L[189] + L[195] * L[199] + L[204] * L[208] + L[212] * L[216] + L[219] * L[223];
-      s += L[225] * L[229];
-      L[234] = (M[35] - s) * Dinv[25];
+      jr::v2d s = L[5] * jr::load2(L + 8) + L[14] * jr::load2(L + 17) + L[22] * jr::load2(L + 25) + L[33] * jr::load2(L + 36) + L[43] * jr::load2(L + 46) + L[52] * jr::load2(L + 55) + L[60] * jr::load2(L + 63) + L[71] * jr::load2(L + 74);
+      s += L[81] * jr::load2(L + 84) + L[90] * jr::load2(L + 93) + L[98] * jr::load2(L + 101) + L[105] * jr::load2(L + 108) + L[117] * jr::load2(L + 120) + L[128] * jr::load2(L + 131) + L[138] * jr::load2(L + 141) + L[147] * jr::load2(L + 150);
+      s += L[155] * jr::load2(L + 158) + L[162] * jr::load2(L + 165) + L[174] * jr::load2(L + 177) + L[185] * jr::load2(L + 188) + L[195] * jr::load2(L + 198) + L[204] * jr::load2(L + 207) + L[212] * jr::load2(L + 215) + L[219] * jr::load2(L + 222);
+      s += L[225] * jr::load2(L + 228);
+      jr::store2(L + 233, (jr::set2(M[34], M[35]) - s) * Dinv[25]);
     }
   }
   // column 26: joint 'floating_base' (coordinate 3 of 6); 26 descendant(s), 3 ancestor row(s)
@@ -1302,18 +1024,11 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     L[235] = std::sqrt(d);
     Dinv[26] = 1.0 / L[235];
     {
-      double s = L[6] * L[7] + L[15] * L[16] + L[23] * L[24] + L[34] * L[35] + L[44] * L[45] + L[53] * L[54] + L[61] * L[62] + L[72] * L[73];
-      s += L[82] * L[83] + L[91] * L[92] + L[99] * L[100] + L[106] * L[107] + L[118] * L[119] + L[129] * L[130] + L[139] * L[140] + L[148] * L[149];
-      s += L[156] * L[157] + L[163] * L[164] + L[175] * L[176] + L[186] * L[187] + L[196] * L[197] + L[205] * L[206] + L[213] * L[214] + L[220] * L[221];
-      s += L[226] * L[227] + L[231] * L[232];
-      L[236] = (M[63] - s) * Dinv[26];
-    }
-    {
-      double s = L[6] * L[8] + L[15] * L[17] + L[23] * L[25] + L[34] * L[36] + L[44] * L[46] + L[53] * L[55] + L[61] * L[63] + L[72] * L[74];
-      s += L[82] * L[84] + L[91] * L[93] + L[99] * L[101] + L[106] * L[108] + L[118] * L[120] + L[129] * L[131] + L[139] * L[141] + L[148] * L[150];
-      s += L[156] * L[158] + L[163] * L[165] + L[175] * L[177] + L[186] * L[188] + L[196] * L[198] + L[205] * L[207] + L[213] * L[215] + L[220] * L[222];
-      s += L[226] * L[228] + L[231] * L[233];
-      L[237] = (M[64] - s) * Dinv[26];
+      jr::v2d s = L[6] * jr::load2(L + 7) + L[15] * jr::load2(L + 16) + L[23] * jr::load2(L + 24) + L[34] * jr::load2(L + 35) + L[44] * jr::load2(L + 45) + L[53] * jr::load2(L + 54) + L[61] * jr::load2(L + 62) + L[72] * jr::load2(L + 73);
+      s += L[82] * jr::load2(L + 83) + L[91] * jr::load2(L + 92) + L[99] * jr::load2(L + 100) + L[106] * jr::load2(L + 107) + L[118] * jr::load2(L + 119) + L[129] * jr::load2(L + 130) + L[139] * jr::load2(L + 140) + L[148] * jr::load2(L + 149);
+      s += L[156] * jr::load2(L + 157) + L[163] * jr::load2(L + 164) + L[175] * jr::load2(L + 176) + L[186] * jr::load2(L + 187) + L[196] * jr::load2(L + 197) + L[205] * jr::load2(L + 206) + L[213] * jr::load2(L + 214) + L[220] * jr::load2(L + 221);
+      s += L[226] * jr::load2(L + 227) + L[231] * jr::load2(L + 232);
+      jr::store2(L + 236, (jr::set2(M[63], M[64]) - s) * Dinv[26]);
     }
     {
       double s = L[6] * L[9] + L[15] * L[18] + L[23] * L[26] + L[34] * L[37] + L[44] * L[47] + L[53] * L[56] + L[61] * L[64] + L[72] * L[75];
@@ -1334,18 +1049,11 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     L[239] = std::sqrt(d);
     Dinv[27] = 1.0 / L[239];
     {
-      double s = L[7] * L[8] + L[16] * L[17] + L[24] * L[25] + L[35] * L[36] + L[45] * L[46] + L[54] * L[55] + L[62] * L[63] + L[73] * L[74];
-      s += L[83] * L[84] + L[92] * L[93] + L[100] * L[101] + L[107] * L[108] + L[119] * L[120] + L[130] * L[131] + L[140] * L[141] + L[149] * L[150];
-      s += L[157] * L[158] + L[164] * L[165] + L[176] * L[177] + L[187] * L[188] + L[197] * L[198] + L[206] * L[207] + L[214] * L[215] + L[221] * L[222];
-      s += L[227] * L[228] + L[232] * L[233] + L[236] * L[237];
-      L[240] = (M[94] - s) * Dinv[27];
-    }
-    {
-      double s = L[7] * L[9] + L[16] * L[18] + L[24] * L[26] + L[35] * L[37] + L[45] * L[47] + L[54] * L[56] + L[62] * L[64] + L[73] * L[75];
-      s += L[83] * L[85] + L[92] * L[94] + L[100] * L[102] + L[107] * L[109] + L[119] * L[121] + L[130] * L[132] + L[140] * L[142] + L[149] * L[151];
-      s += L[157] * L[159] + L[164] * L[166] + L[176] * L[178] + L[187] * L[189] + L[197] * L[199] + L[206] * L[208] + L[214] * L[216] + L[221] * L[223];
-      s += L[227] * L[229] + L[232] * L[234] + L[236] * L[238];
-      L[241] = (M[95] - s) * Dinv[27];
+      jr::v2d s = L[7] * jr::load2(L + 8) + L[16] * jr::load2(L + 17) + L[24] * jr::load2(L + 25) + L[35] * jr::load2(L + 36) + L[45] * jr::load2(L + 46) + L[54] * jr::load2(L + 55) + L[62] * jr::load2(L + 63) + L[73] * jr::load2(L + 74);
+      s += L[83] * jr::load2(L + 84) + L[92] * jr::load2(L + 93) + L[100] * jr::load2(L + 101) + L[107] * jr::load2(L + 108) + L[119] * jr::load2(L + 120) + L[130] * jr::load2(L + 131) + L[140] * jr::load2(L + 141) + L[149] * jr::load2(L + 150);
+      s += L[157] * jr::load2(L + 158) + L[164] * jr::load2(L + 165) + L[176] * jr::load2(L + 177) + L[187] * jr::load2(L + 188) + L[197] * jr::load2(L + 198) + L[206] * jr::load2(L + 207) + L[214] * jr::load2(L + 215) + L[221] * jr::load2(L + 222);
+      s += L[227] * jr::load2(L + 228) + L[232] * jr::load2(L + 233) + L[236] * jr::load2(L + 237);
+      jr::store2(L + 240, (jr::set2(M[94], M[95]) - s) * Dinv[27]);
     }
   }
   // column 28: joint 'floating_base' (coordinate 5 of 6); 28 descendant(s), 1 ancestor row(s)
