@@ -24,7 +24,10 @@ inline constexpr std::size_t kMaxStatementsPerFunction = 4000;
 // scene), the loops 1.06x faster at 16 600 (tree_d4_1000), 1.3x at 24 900
 // and 2.4x at 44 300 (tree_1000).  The earlier limit, 50 000, was the
 // break-even on another machine (2026-11-22), where tree_1000 ran both
-// shapes at the same speed; on this one it lost 2.4x there.
+// shapes at the same speed; on this one it lost 2.4x there.  Since Steps 1
+// and 3.1 write pairs of doubles (jrgen/simd.hpp) the straight-line code
+// also wins at 16 600 (1.10x), so the break-even now lies between 16 600 and
+// 24 900 products; the limit has not been moved again.
 inline constexpr long long kMaxUnrolledProducts = 16000;
 // Closed loops whose straight-line Step 3 would hold more products than this
 // get the runtime's table-driven Step 3 (docs/trains.md).  Not re-measured

@@ -62,6 +62,7 @@ inline void update_ancestors_fixed(double* L, const std::int32_t* start, const s
 template <bool kScaled>
 inline void update_ancestors(double* L, const std::int32_t* start, const std::int32_t* parent, std::int32_t s,
                              const double* col, double scale, std::int32_t n) {
+  static_assert(kMaxFixedAncestors == 16, "the cases below list the lengths 1 to 16");
   switch (n) {
     case 0: return;
 #define JR_FIXED_CASE(P) \

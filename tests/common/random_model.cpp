@@ -157,6 +157,8 @@ std::string random_tree_urdf(const RandomTreeOptions& o) {
   if (o.mechanism_bodies < 0) throw std::invalid_argument("random_tree_urdf: mechanism_bodies must be >= 0");
   if (o.mechanism_bodies > 0 && o.floating_base)
     throw std::invalid_argument("random_tree_urdf: mechanism_bodies and floating_base do not go together");
+  if (o.mechanism_bodies > 1 && o.max_depth == 1)
+    throw std::invalid_argument("random_tree_urdf: a mechanism of several bodies needs max_depth >= 2");
   const std::array<std::pair<Type, double>, 6> weights = {{{Type::Revolute, o.p_revolute},
                                                            {Type::Continuous, o.p_continuous},
                                                            {Type::Prismatic, o.p_prismatic},

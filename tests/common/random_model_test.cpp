@@ -373,6 +373,12 @@ TEST(RandomModel, BadOptionsThrow) {
   o.mechanism_bodies = 5;
   o.floating_base = true;
   EXPECT_THROW(random_tree_urdf(o), std::invalid_argument);
+  o.floating_base = false;
+  o.max_depth = 1;  // a mechanism's second body would have nowhere to attach
+  EXPECT_THROW(random_tree_urdf(o), std::invalid_argument);
+  o.mechanism_bodies = 1;  // one body per mechanism: all on the world
+  const Parsed p = parse(random_tree_urdf(o));
+  for (const auto& j : p.joints) EXPECT_EQ(j.parent, "world") << j.name;
 }
 
 // add_floating_base: jr_world becomes the root, with one floating joint to the

@@ -1,21 +1,23 @@
-// Pairs of doubles for the generated straight-line code (Step 1).
+// Pairs of doubles for the generated straight-line code (Steps 1 and 3.1).
 //
 // Two neighbouring entries of a column of the packed factor have the same
 // form in eq. (26): L[k, j] and L[k', j] (k' the parent of k) both subtract
 // L[j, i] L[., i] over the same descendants i, and their L[., i] sit next to
 // each other in column i (Lemma 2 layout: column i holds i and its
-// ancestors, nearest first).  The generator writes such pairs as one
-// statement on a v2d, which the compiler turns into one SSE2 (or NEON)
-// instruction per operation instead of two: the code gets shorter and the
-// arithmetic stays the same, lane by lane and in the same order (so the
-// results are bitwise those of the scalar statements).
+// ancestors, nearest first).  Likewise two constraint rows of one row of T
+// (Step 3.1) whose sums run over the same descendants.  The generator writes
+// such pairs as one statement on a v2d, which the compiler turns into one
+// SSE2 (or NEON) instruction per operation instead of two: the code gets
+// shorter and the arithmetic stays the same, lane by lane and in the same
+// order (so the results are bitwise those of the scalar statements).
+// JRGEN_PORTABLE_SIMD selects the plain-C++ fallback on any compiler.
 #pragma once
 
 #include <cstring>
 
 namespace jr {
 
-#if defined(__GNUC__) || defined(__clang__)
+#if (defined(__GNUC__) || defined(__clang__)) && !defined(JRGEN_PORTABLE_SIMD)
 /// Two doubles in one register; arithmetic is element-wise, and a double
 /// operand is broadcast to both lanes.
 typedef double v2d __attribute__((vector_size(16)));
