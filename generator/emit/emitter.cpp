@@ -73,7 +73,7 @@ Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc,
       for (std::size_t p = 0; p < anc.size();) {
         const int r = anc[p];
         if (p + 1 < anc.size() && pairable(r, anc[p + 1], j, dj)) {
-          std::vector<PairTerm> terms;
+          std::vector<Term> terms;
           for (std::size_t n = 0; n < dj.size(); ++n) terms.push_back({factor(n), pair(r, dj[n])});
           k.update_pair(u, "  ", target(r, j), M_pair(r, anc[p + 1], j), terms, fmt::format("Dinv[{}]", j));
           p += 2;

@@ -18,13 +18,13 @@ std::string products(const std::vector<Term>& terms, std::size_t from, std::size
   return s;
 }
 
-// Partial sums of more than kMaxTermsPerStatement products: "double acc =
+// Partial sums of more than kMaxTermsPerStatement products: "type acc =
 // chunk;" then "acc += chunk;".  Returns the name holding the sum.
 std::string partial_sums(Kernel::Unit& u, const std::string& indent, const std::vector<Term>& terms,
-                         const std::string& acc) {
+                         const std::string& acc, const std::string& type = "double") {
   for (std::size_t from = 0; from < terms.size(); from += kMaxTermsPerStatement) {
     const std::size_t to = std::min(terms.size(), from + kMaxTermsPerStatement);
-    u.lines.push_back(indent + (from == 0 ? "double " + acc + " = " : acc + " += ") + products(terms, from, to) +
+    u.lines.push_back(indent + (from == 0 ? type + " " + acc + " = " : acc + " += ") + products(terms, from, to) +
                       ";");
     ++u.statements;
   }
@@ -66,15 +66,10 @@ void Kernel::update(Unit& u, const std::string& indent, const std::string& targe
 }
 
 void Kernel::update_pair(Unit& u, const std::string& indent, const std::string& target, const std::string& base,
-                         const std::vector<PairTerm>& terms, const std::string& scale) {
+                         const std::vector<Term>& terms, const std::string& scale) {
   ops.mul += 2 * static_cast<long long>(terms.size()) + (scale.empty() ? 0 : 2);
   // With no base the sum is negated, as in update(): one addition fewer per lane.
   ops.add += 2 * static_cast<long long>(terms.size()) - (base.empty() && !terms.empty() ? 2 : 0);
-  auto pair_products = [&](std::size_t from, std::size_t to) {
-    std::string p;
-    for (std::size_t k = from; k < to; ++k) p += (k > from ? " + " : "") + terms[k].scalar + " * " + terms[k].pair;
-    return p;
-  };
   auto store = [&](const std::string& in, const std::string& value) {
     const std::string scaled = scale.empty() ? value : terms.empty() ? value + " * " + scale : "(" + value + ") * " + scale;
     u.lines.push_back(in + "jr::store2(" + target + ", " + scaled + ");");
@@ -82,19 +77,15 @@ void Kernel::update_pair(Unit& u, const std::string& indent, const std::string& 
   };
   const std::string minus = base.empty() ? "-" : base + " - ";
   if (terms.size() <= kMaxTermsPerStatement) {
-    const std::string sum = pair_products(0, terms.size());
+    const std::string sum = products(terms, 0, terms.size());
     store(indent, terms.empty() ? base : terms.size() == 1 && !base.empty() ? minus + sum : minus + "(" + sum + ")");
     return;
   }
   // Partial sums, as update() makes them (same order of additions).
   u.lines.push_back(indent + "{");
   const std::string in = indent + "  ";
-  for (std::size_t from = 0; from < terms.size(); from += kMaxTermsPerStatement) {
-    const std::size_t to = std::min(terms.size(), from + kMaxTermsPerStatement);
-    u.lines.push_back(in + (from == 0 ? "jr::v2d s = " : "s += ") + pair_products(from, to) + ";");
-    ++u.statements;
-  }
-  store(in, base.empty() ? "(-s)" : base + " - s");
+  const std::string acc = partial_sums(u, in, terms, "s", "jr::v2d");
+  store(in, base.empty() ? "(-" + acc + ")" : base + " - " + acc);
   u.lines.push_back(indent + "}");
 }
 

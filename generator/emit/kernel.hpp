@@ -61,12 +61,6 @@ struct Term {
   std::string a, b;
 };
 
-/// A product of a scalar and a pair of doubles (a jr::v2d expression,
-/// jrgen/simd.hpp): one Term for each of two neighbouring targets.
-struct PairTerm {
-  std::string scalar, pair;
-};
-
 struct Kernel {
   struct Unit {
     std::vector<std::string> lines;
@@ -89,11 +83,12 @@ struct Kernel {
 
   /// Two update()s of neighbouring targets as one statement on jr::v2d:
   /// "jr::store2(target, (base - sum terms) * scale);" (scale may be empty),
-  /// with `target` a pointer expression and `base` a jr::v2d expression.
-  /// Each lane computes exactly what update() would for its target, in the
-  /// same order, and counts as two update()s (base may be empty: "-sum").
+  /// with `target` a pointer expression, `base` a jr::v2d expression, and in
+  /// each term a scalar times a jr::v2d expression (jrgen/simd.hpp).  Each
+  /// lane computes exactly what update() would for its target, in the same
+  /// order, and counts as two update()s (base may be empty: "-sum").
   void update_pair(Unit& u, const std::string& indent, const std::string& target, const std::string& base,
-                   const std::vector<PairTerm>& terms, const std::string& scale);
+                   const std::vector<Term>& terms, const std::string& scale);
 
   /// Appends "target = sum terms - tail;" (tail may be empty).  Counts
   /// len(terms) multiplications, len(terms) - 1 additions, plus one for the tail.

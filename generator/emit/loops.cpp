@@ -442,6 +442,8 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
   // writes it (P, cut row by cut row); Step 3.1 reads it and writes T.
   const TByDofs td = t_by_dofs(t, rows, sp);
   auto Tr = [&](int dof, int g) { return fmt::format("T[{}]", td.at(dof, g)); };
+  // LDLT: V = D^-1 U (Step 3.2), laid out as T; the left factor of Step 3.3.
+  auto Vr = [&](int dof, int g) { return fmt::format("V[{}]", td.at(dof, g)); };
 
   // ---- Dense part of T^T T ----
   // Dofs that every kept row reaches (a floating base under all the loops)
@@ -506,7 +508,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
           ++u.statements;
           p += 1;
         } else if (p + 1 < gs.size() && pairable(g, gs[p + 1])) {
-          std::vector<PairTerm> terms;
+          std::vector<Term> terms;
           for (int v : descendants(g)) terms.push_back({L(t, i, v), fmt::format("jr::load2(T + {})", td.at(v, g))});
           const std::string base = b < 0 ? "" : fmt::format("jr::set2(P[{}], P[{}])", b, base_index(gs[p + 1]));
           k31.update_pair(u, "", fmt::format("T + {}", td.at(i, g)), base, terms, scale);
@@ -529,8 +531,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
       Kernel::Unit& u = k32.unit();
       u.lines.push_back(fmt::format("// V, row {}: {}", i, dof_label(t, i)));
       for (int g : td.rows[i]) {
-        const std::string Ti = Tr(i, g);
-        u.lines.push_back(fmt::format("V{} = {} * Dinv[{}];", Ti.substr(1), Ti, i));
+        u.lines.push_back(fmt::format("{} = {} * Dinv[{}];", Vr(i, g), Tr(i, g), i));
         ++u.statements;
         k32.ops.mul += 1;
       }
@@ -543,10 +544,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
     Kernel::Unit& u = k32.unit();
     u.lines.push_back(fmt::format("// row {}: {}", g, row_label(t, row)));
     std::vector<Term> terms;
-    for (int i : cut.dofs) {
-      const std::string Ti = Tr(i, g);
-      terms.push_back({ldlt ? "V" + Ti.substr(1) : Ti, fmt::format("z[{}]", i)});
-    }
+    for (int i : cut.dofs) terms.push_back({ldlt ? Vr(i, g) : Tr(i, g), fmt::format("z[{}]", i)});
     k32.assign_sum(u, "", fmt::format("zm[{}]", g), terms, fmt::format("gamma[{}]", g));
   }
 
@@ -559,9 +557,8 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
     u.lines.push_back(fmt::format("// dense part: the {} dofs {} to {} reached by every row ({} .. {})", dense_dofs,
                                   dense_first, dense_first + dense_dofs - 1, dof_label(t, dense_first),
                                   dof_label(t, dense_first + dense_dofs - 1)));
-    const std::string block = fmt::format("T + {}", td.start[dense_first]);
-    u.lines.push_back(fmt::format("jr::schur_dense_gram({}, {}, {}, {}, W);", ldlt ? "V" + block.substr(1) : block,
-                                  block, dense_dofs, m));
+    u.lines.push_back(fmt::format("jr::schur_dense_gram({0} + {1}, T + {1}, {2}, {3}, W);", ldlt ? "V" : "T",
+                                  td.start[dense_first], dense_dofs, m));
     ++u.statements;
     const long long entries = static_cast<long long>(m) * (m + 1) / 2;
     k33.ops.mul += entries * dense_dofs;
@@ -579,8 +576,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
       std::set_intersection(cj.dofs.begin(), cj.dofs.end(), cr.dofs.begin(), cr.dofs.end(), std::back_inserter(common));
       for (int i : common) {
         if (i >= dense_first && i < dense_last) continue;
-        const std::string a = Tr(i, sp.order[r]), b = Tr(i, sp.order[j]);
-        terms.push_back({ldlt ? "V" + a.substr(1) : a, b});
+        terms.push_back({ldlt ? Vr(i, sp.order[r]) : Tr(i, sp.order[r]), Tr(i, sp.order[j])});
       }
       return terms;
     };
