@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <array>
 
+#include <jrgen/runtime.hpp>
+
 #include "emit/code_writer.hpp"
 #include "emit/format.hpp"
 #include "emit/kernel.hpp"
@@ -200,6 +202,33 @@ std::string as_comment(const std::string& text) {
   std::string out;
   for (const std::string& line : split_lines(text)) out += (out.empty() ? "// " : "\n// ") + line;
   return out;
+}
+
+// The row tables of the packed L for the table-driven Steps 2 and 4
+// (jr::PackedRows), as the runtime's fill_packed_rows() computes them from
+// the dof tree and the column starts.
+std::string packed_rows_tables(const topology::Tree& t) {
+  const std::size_t nnz = static_cast<std::size_t>(t.M_col_start[t.nv]);
+  const std::size_t off = nnz - static_cast<std::size_t>(t.nv);
+  jr::Model model{};
+  model.nv = t.nv;
+  model.dof_parent = t.dof_parent.data();
+  model.M_col_start = t.M_col_start.data();
+  // One unused entry when L is diagonal (a C++ array has at least one).
+  std::vector<std::int32_t> entry_row(nnz), row_start(t.nv + 1), row_entry(std::max<std::size_t>(off, 1)),
+      row_col(std::max<std::size_t>(off, 1));
+  jr::fill_packed_rows(model, entry_row.data(), row_start.data(), row_entry.data(), row_col.data());
+  return fmt::format(
+      "// Row access to the packed L for Steps 2 and 4 (jr::PackedRows): the row of\n"
+      "// each stored entry, and each row's off-diagonal entries (positions in L and\n"
+      "// columns, by column ascending).\n"
+      "constexpr std::int32_t kEntryRow[{}] = {{ {} }};\n"
+      "constexpr std::int32_t kRowStart[{}] = {{ {} }};\n"
+      "constexpr std::int32_t kRowEntry[{}] = {{ {} }};\n"
+      "constexpr std::int32_t kRowCol[{}] = {{ {} }};\n"
+      "constexpr jr::PackedRows kRows = {{kEntryRow, kRowStart, kRowEntry, kRowCol}};",
+      entry_row.size(), join_ints(entry_row), row_start.size(), join_ints(row_start), row_entry.size(),
+      join_ints(row_entry), row_col.size(), join_ints(row_col));
 }
 
 std::string ops_line(const OpCount& o) {
@@ -531,7 +560,7 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
     const std::string why = fmt::format(
         "Unrolled, Step 1 alone would hold {} products (more than {}): code that\n"
         "large outgrows the instruction caches and runs slower than the runtime's\n"
-        "loops over the same packed layout, which do the same arithmetic (Lemma 2:\n"
+        "loops over the same packed layout, which compute the same factor (Lemma 2:\n"
         "no fill-in; only ancestor rows are touched).",
         products, unroll_limit());
     const char* flag = ldlt ? "true" : "false";
@@ -545,16 +574,20 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
         "}}",
         method_note, as_comment(why),
         k1.ops.add, k1.ops.mul, k1.ops.div, k1.ops.sqrt, flag);
-    v["step2"] = fmt::format(
-        "// ---- Step 2: solve L z = Q (forward substitution), Remark 2, table-driven. ----\n"
+    v["step2"] = packed_rows_tables(t) + fmt::format(
+        "\n\n// ---- Step 2: solve L z = Q (forward substitution), Remark 2, table-driven. ----\n"
+        "// Row j sums over its descendants (kRowEntry).\n"
         "// Ops: {} add, {} mul, {} div.\n"
-        "void step2_forward(const double* L, {}double* z) {{ jr::forward_packed(kModel, L, {}, {}, z); }}",
+        "void step2_forward(const double* L, {}double* z) {{\n"
+        "  jr::forward_packed(kModel, kRows, L, {}, {}, z);\n"
+        "}}",
         k2.ops.add, k2.ops.mul, k2.ops.div, ldlt ? "" : "const double* Dinv, ", ldlt ? "nullptr" : "Dinv", flag);
     v["step4"] = fmt::format(
         "// ---- Step 4: solve L^T qdd = z (back substitution), Remark 2, table-driven. ----\n"
+        "// Column j sums over its ancestors (kEntryRow).\n"
         "// Ops: {} add, {} mul, {} div.\n"
         "void step4_backward(const double* L, const double* Dinv, double* z) {{\n"
-        "  jr::backward_packed(kModel, L, Dinv, {}, z);\n"
+        "  jr::backward_packed(kModel, kRows, L, Dinv, {}, z);\n"
         "}}",
         k4.ops.add, k4.ops.mul, k4.ops.div, flag);
   } else {

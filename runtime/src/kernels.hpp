@@ -2,6 +2,7 @@
 // (runtime.cpp, supernodal.cpp, parallel.cpp).  Internal: not installed.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 
 namespace jr::detail {
@@ -23,15 +24,30 @@ inline void subtract_scaled(double* __restrict y, const double* __restrict x, do
   if (i < n) y[i] -= x[i] * f;
 }
 
+/// The scale of column j's rows in the factor, from its pivot d > 0 (its
+/// diagonal entry after its descendants' updates, eq. 25) and dinv = 1 / d:
+/// 1 / d for L D L^T; for L L^T, 1 / l = l / d, with l = sqrt(d) written to
+/// *diag.  Both factorizations update the ancestors with the unscaled rows w
+/// of column j and f = w * dinv (update_ancestors), since l_a l_b = w_a w_b / d
+/// for L L^T: one division is then the only operation between a pivot and the
+/// updates that the next columns wait for.  The square root and the scaling
+/// of the rows are off that chain; Step 1 of a 1059-dof random tree took 14.2
+/// us with them on it and 10.0 us so (docs/benchmarks.md, run 6).
+inline double row_scale(double d, double dinv, bool ldlt, double* diag) {
+  if (ldlt) return dinv;
+  const double l = std::sqrt(d);
+  *diag = l;
+  return l * dinv;
+}
+
 /// The update of Step 1 (eq. 18 with Lemma 2, right-looking) that column j
 /// makes to the columns of its n ancestors s_0 = s, s_1 = parent[s_0], ...:
 ///
-///     L[s_a, s_b] -= col[b] * f_a   for 0 <= a <= b < n,
+///     L[s_a, s_b] -= col[b] * f_a,   f_a = col[a] * scale,   0 <= a <= b < n,
 ///
-/// where col[0, n) are column j's ancestor rows and f_a = col[a] (LLT, col
-/// already scaled) or col[a] * scale (kScaled: LDLT, col not yet scaled).
-/// Column s_a stores rows s_a, s_{a+1}, ... contiguously from start[s_a], so
-/// row s_b sits at start[s_a] + (b - a).
+/// where col[0, n) are column j's ancestor rows, not yet scaled, and scale =
+/// 1 / pivot (row_scale).  Column s_a stores rows s_a, s_{a+1}, ...
+/// contiguously from start[s_a], so row s_b sits at start[s_a] + (b - a).
 ///
 /// Short columns are the common case in trees (a few ancestors each), and a
 /// loop over a length that changes from call to call costs a mispredicted
@@ -40,7 +56,7 @@ inline void subtract_scaled(double* __restrict y, const double* __restrict x, do
 /// the arithmetic, and its order for every entry of L, is that of the loops.
 inline constexpr std::int32_t kMaxFixedAncestors = 16;
 
-template <int P, bool kScaled>
+template <int P>
 inline void update_ancestors_fixed(double* L, const std::int32_t* start, const std::int32_t* parent, std::int32_t s,
                                    const double* col, double scale) {
   double c[P];
@@ -53,20 +69,19 @@ inline void update_ancestors_fixed(double* L, const std::int32_t* start, const s
   }
 #pragma GCC unroll 16
   for (int a = 0; a < P; ++a) {
-    const double f = kScaled ? c[a] * scale : c[a];
+    const double f = c[a] * scale;
 #pragma GCC unroll 16
     for (int b = a; b < P; ++b) y[a][b - a] -= c[b] * f;
   }
 }
 
-template <bool kScaled>
 inline void update_ancestors(double* L, const std::int32_t* start, const std::int32_t* parent, std::int32_t s,
                              const double* col, double scale, std::int32_t n) {
   static_assert(kMaxFixedAncestors == 16, "the cases below list the lengths 1 to 16");
   switch (n) {
     case 0: return;
 #define JR_FIXED_CASE(P) \
-  case P: update_ancestors_fixed<P, kScaled>(L, start, parent, s, col, scale); return;
+  case P: update_ancestors_fixed<P>(L, start, parent, s, col, scale); return;
     JR_FIXED_CASE(1) JR_FIXED_CASE(2) JR_FIXED_CASE(3) JR_FIXED_CASE(4)
     JR_FIXED_CASE(5) JR_FIXED_CASE(6) JR_FIXED_CASE(7) JR_FIXED_CASE(8)
     JR_FIXED_CASE(9) JR_FIXED_CASE(10) JR_FIXED_CASE(11) JR_FIXED_CASE(12)
@@ -74,7 +89,7 @@ inline void update_ancestors(double* L, const std::int32_t* start, const std::in
 #undef JR_FIXED_CASE
     default:
       for (std::int32_t a = 0; a < n; ++a, s = parent[s])
-        subtract_scaled(L + start[s], col + a, kScaled ? col[a] * scale : col[a], n - a);
+        subtract_scaled(L + start[s], col + a, col[a] * scale, n - a);
   }
 }
 

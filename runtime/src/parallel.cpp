@@ -27,18 +27,10 @@ bool factor_column(const Model& model, std::int32_t j, double* L, double* Dinv, 
     return false;
   }
   double* col = L + cj + 1;
-  double scale;
-  if (ldlt) {
-    scale = 1.0 / d;
-    Dinv[j] = scale;
-  } else {
-    const double l = std::sqrt(d);
-    L[cj] = l;
-    Dinv[j] = 1.0 / l;
-    for (std::int32_t a = 0; a < na; ++a) col[a] *= Dinv[j];
-    scale = 1.0;
-  }
-  // ldlt: L[s, j] = col[a] / d, and the update is col[b] * L[s, j].
+  const double scale = 1.0 / d;
+  const double rows = detail::row_scale(d, scale, ldlt, L + cj);
+  Dinv[j] = rows;
+  // The update is col[b] * (col[a] / d) with the rows not yet scaled (row_scale).
   std::int32_t s = parent[j];
   for (std::int32_t a = 0; a < own; ++a, s = parent[s]) {
     const double f = col[a] * scale;
@@ -49,8 +41,7 @@ bool factor_column(const Model& model, std::int32_t j, double* L, double* Dinv, 
     double* cu = U + static_cast<std::int64_t>(a - own) * path - own;
     for (std::int32_t b = a; b < na; ++b) cu[b] += col[b] * f;
   }
-  if (ldlt)
-    for (std::int32_t a = 0; a < na; ++a) col[a] *= scale;
+  for (std::int32_t a = 0; a < na; ++a) col[a] *= rows;
   return true;
 }
 

@@ -677,46 +677,78 @@ std::int32_t factor_packed(const Model& model, double* L, double* Dinv, bool ldl
       return j;
     }
     double* col = L + cj + 1;  // ancestor rows of column j
-    if (ldlt) {
-      const double dinv = 1.0 / d;
-      Dinv[j] = dinv;
-      // Update ancestor columns with w = L[r, j] (unscaled) times L[s, j]
-      // = w[s] * dinv, then scale.
-      detail::update_ancestors<true>(L, start, parent, parent[j], col, dinv, len - 1);
-      for (std::int32_t a = 0; a < len - 1; ++a) col[a] *= dinv;
-    } else {
-      const double l = std::sqrt(d);
-      L[cj] = l;
-      const double linv = 1.0 / l;
-      Dinv[j] = linv;
-      for (std::int32_t a = 0; a < len - 1; ++a) col[a] *= linv;
-      detail::update_ancestors<false>(L, start, parent, parent[j], col, 1.0, len - 1);
-    }
+    const double dinv = 1.0 / d;
+    const double rows = detail::row_scale(d, dinv, ldlt, L + cj);
+    Dinv[j] = rows;
+    detail::update_ancestors(L, start, parent, parent[j], col, dinv, len - 1);
+    for (std::int32_t a = 0; a < len - 1; ++a) col[a] *= rows;
   }
   return -1;
 }
 
-void forward_packed(const Model& model, const double* L, const double* Dinv, bool ldlt, double* z) {
+void fill_packed_rows(const Model& model, std::int32_t* entry_row, std::int32_t* row_start, std::int32_t* row_entry,
+                      std::int32_t* row_col) {
   const std::int32_t* start = model.M_col_start;
-  const std::int32_t* parent = model.dof_parent;
+  const std::int32_t nv = model.nv;
+  for (std::int32_t j = 0; j <= nv; ++j) row_start[j] = 0;
+  // Count each row's off-diagonal entries, then place them column by column
+  // (ascending), so that each row lists its columns in ascending order.
+  for (std::int32_t j = 0; j < nv; ++j) {
+    std::int32_t r = j;
+    for (std::int32_t k = start[j]; k < start[j + 1]; ++k, r = model.dof_parent[r]) {
+      entry_row[k] = r;
+      if (k > start[j]) ++row_start[r + 1];
+    }
+  }
+  for (std::int32_t j = 0; j < nv; ++j) row_start[j + 1] += row_start[j];
+  // row_start[r] serves as row r's fill cursor: it ends at the start of row
+  // r + 1, and the shift below restores it.
+  for (std::int32_t j = 0; j < nv; ++j)
+    for (std::int32_t k = start[j] + 1; k < start[j + 1]; ++k) {
+      const std::int32_t p = row_start[entry_row[k]]++;
+      row_entry[p] = k;
+      row_col[p] = j;
+    }
+  for (std::int32_t j = nv; j > 0; --j) row_start[j] = row_start[j - 1];
+  row_start[0] = 0;
+}
+
+void forward_packed(const Model& model, const PackedRows& rows, const double* L, const double* Dinv, bool ldlt,
+                    double* z) {
+  // Row j: z_j = (Q_j - sum over descendants k of L[j, k] z_k) / L[j, j]
+  // (times 1 with ldlt), descendants first (Lemma 2); two partial sums.
+  const std::int32_t* rs = rows.row_start;
+  const std::int32_t* re = rows.row_entry;
+  const std::int32_t* rc = rows.row_col;
   for (std::int32_t j = 0; j < model.nv; ++j) {
-    if (!ldlt) z[j] *= Dinv[j];
-    const double zj = z[j];
-    const double* col = L + start[j] + 1;
-    std::int32_t r = parent[j];
-    for (std::int32_t a = 0; r >= 0; ++a, r = parent[r]) z[r] -= col[a] * zj;
+    double s0 = z[j], s1 = 0.0;
+    std::int32_t k = rs[j];
+    const std::int32_t end = rs[j + 1];
+    for (; k + 1 < end; k += 2) {
+      s0 -= L[re[k]] * z[rc[k]];
+      s1 -= L[re[k + 1]] * z[rc[k + 1]];
+    }
+    if (k < end) s0 -= L[re[k]] * z[rc[k]];
+    z[j] = ldlt ? s0 + s1 : (s0 + s1) * Dinv[j];
   }
 }
 
-void backward_packed(const Model& model, const double* L, const double* Dinv, bool ldlt, double* z) {
+void backward_packed(const Model& model, const PackedRows& rows, const double* L, const double* Dinv, bool ldlt,
+                     double* z) {
+  // Column j: x_j = (z_j - sum over ancestors a of L[a, j] x_a) / L[j, j]
+  // (ldlt: z_j / d_j - sum ...), ancestors first; two partial sums.
   const std::int32_t* start = model.M_col_start;
-  const std::int32_t* parent = model.dof_parent;
+  const std::int32_t* row = rows.entry_row;
   for (std::int32_t j = model.nv - 1; j >= 0; --j) {
-    double s = ldlt ? z[j] * Dinv[j] : z[j];
-    const double* col = L + start[j] + 1;
-    std::int32_t r = parent[j];
-    for (std::int32_t a = 0; r >= 0; ++a, r = parent[r]) s -= col[a] * z[r];
-    z[j] = ldlt ? s : s * Dinv[j];
+    double s0 = ldlt ? z[j] * Dinv[j] : z[j], s1 = 0.0;
+    std::int32_t k = start[j] + 1;
+    const std::int32_t end = start[j + 1];
+    for (; k + 1 < end; k += 2) {
+      s0 -= L[k] * z[row[k]];
+      s1 -= L[k + 1] * z[row[k + 1]];
+    }
+    if (k < end) s0 -= L[k] * z[row[k]];
+    z[j] = ldlt ? s0 + s1 : (s0 + s1) * Dinv[j];
   }
 }
 

@@ -15,7 +15,7 @@ using DenseBlock = Eigen::Map<Eigen::MatrixXd, 0, Eigen::OuterStride<>>;
 using ConstDenseBlock = Eigen::Map<const Eigen::MatrixXd, 0, Eigen::OuterStride<>>;
 
 // Column j of L L^T, right-looking (factor_packed's loop body): pivot test,
-// scaling of the ancestor rows, rank-1 update of the ancestors' columns.
+// rank-1 update of the ancestors' columns, scaling of the ancestor rows.
 bool factor_column(const Model& model, std::int32_t j, double* L, double* Dinv, double tol, double* pivot) {
   const std::int32_t* start = model.M_col_start;
   const std::int32_t* parent = model.dof_parent;
@@ -27,12 +27,11 @@ bool factor_column(const Model& model, std::int32_t j, double* L, double* Dinv, 
     return false;
   }
   double* col = L + cj + 1;
-  const double l = std::sqrt(d);
-  L[cj] = l;
-  const double linv = 1.0 / l;
-  Dinv[j] = linv;
-  for (std::int32_t a = 0; a < len - 1; ++a) col[a] *= linv;
-  detail::update_ancestors<false>(L, start, parent, parent[j], col, 1.0, len - 1);
+  const double dinv = 1.0 / d;
+  const double rows = detail::row_scale(d, dinv, false, L + cj);
+  Dinv[j] = rows;
+  detail::update_ancestors(L, start, parent, parent[j], col, dinv, len - 1);
+  for (std::int32_t a = 0; a < len - 1; ++a) col[a] *= rows;
   return true;
 }
 

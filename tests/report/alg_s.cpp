@@ -52,6 +52,13 @@ AlgS::AlgS(const topology::Tree& tree, const double* M, const double* Q, const d
       }
       if (!o.pos_a.empty()) overlaps_.push_back(std::move(o));
     }
+  // Row access for Steps 2 and 4, as the generated table-driven solvers have it.
+  entry_row_.resize(tree.nnz());
+  row_start_.resize(nv_ + 1);
+  row_entry_.resize(std::max(tree.nnz() - nv_, 1));
+  row_col_.resize(row_entry_.size());
+  jr::fill_packed_rows(*model_, entry_row_.data(), row_start_.data(), row_entry_.data(), row_col_.data());
+  rows_ = {entry_row_.data(), row_start_.data(), row_entry_.data(), row_col_.data()};
   L_.resize(tree.nnz());
   Dinv_.resize(nv_);
   z_.resize(nv_);
@@ -75,7 +82,7 @@ int AlgS::step1() {
 
 void AlgS::step2() {
   for (int j = 0; j < nv_; ++j) z_[j] = Q_[dof_user_[j]];
-  jr::forward_packed(*model_, L_.data(), Dinv_.data(), false, z_.data());
+  jr::forward_packed(*model_, rows_, L_.data(), Dinv_.data(), false, z_.data());
 }
 
 void AlgS::step3_1() {
@@ -180,7 +187,7 @@ void AlgS::step3_5() {
 void AlgS::step4() {
   const double* y = nc_ > 0 ? y_.data() : z_.data();  // a tree: y_n = z_n
   std::copy(y, y + nv_, x_.begin());
-  jr::backward_packed(*model_, L_.data(), Dinv_.data(), false, x_.data());
+  jr::backward_packed(*model_, rows_, L_.data(), Dinv_.data(), false, x_.data());
   for (int j = 0; j < nv_; ++j) qdd_[dof_user_[j]] = x_[j];
 }
 

@@ -63,6 +63,8 @@ class AlgS {
   int nv_, nc_;
   std::vector<std::int32_t> M_src_;  ///< packed entry -> index into the dense user M
   std::vector<std::int32_t> dof_user_;
+  std::vector<std::int32_t> entry_row_, row_start_, row_entry_, row_col_;  ///< jr::PackedRows
+  jr::PackedRows rows_{};
   std::vector<CutBlock> cuts_;
   std::vector<Overlap> overlaps_;
   std::vector<std::int32_t> T_src_;  ///< T entry -> index into the dense user Phiq

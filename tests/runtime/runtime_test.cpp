@@ -124,6 +124,61 @@ TEST_P(RuntimeVsReference, Lemma2NoFillIn) {
   EXPECT_EQ(stored, f.tree.nnz());
 }
 
+// The table-driven Steps 1, 2, 4 of the runtime (factor_packed, and the row
+// tables of fill_packed_rows for forward_packed / backward_packed) against a
+// dense Eigen solve, in L L^T and L D L^T; the row tables against the
+// topology's ancestor lists.
+TEST_P(RuntimeVsReference, TableDrivenStepsMatchDenseSolve) {
+  Fixture f(GetParam());
+  std::mt19937_64 rng(13);
+  const int nv = f.tree.nv, nnz = f.tree.nnz();
+  const Eigen::MatrixXd M = f.mass_matrix(reference::random_configuration(f.robot, rng));
+  const Eigen::VectorXd Q = Eigen::VectorXd::Random(nv);
+  std::vector<std::int32_t> entry_row(nnz), row_start(nv + 1), row_entry(std::max(nnz - nv, 1)),
+      row_col(row_entry.size());
+  jr::fill_packed_rows(f.rt->model(), entry_row.data(), row_start.data(), row_entry.data(), row_col.data());
+  // Column c stores rows c, then its ancestors in order; row r lists the
+  // columns whose ancestor it is, ascending, with their positions.
+  std::vector<std::vector<std::pair<int, int>>> by_row(nv);
+  for (int c = 0; c < nv; ++c) {
+    int k = f.tree.M_col_start[c];
+    EXPECT_EQ(entry_row[k++], c);
+    for (int r : f.tree.ancestors(c)) {
+      EXPECT_EQ(entry_row[k], r);
+      by_row[r].push_back({k++, c});
+    }
+  }
+  ASSERT_EQ(row_start[0], 0);
+  for (int r = 0; r < nv; ++r) {
+    ASSERT_EQ(row_start[r + 1] - row_start[r], static_cast<int>(by_row[r].size())) << "row " << r;
+    for (std::size_t i = 0; i < by_row[r].size(); ++i) {
+      EXPECT_EQ(row_entry[row_start[r] + i], by_row[r][i].first);
+      EXPECT_EQ(row_col[row_start[r] + i], by_row[r][i].second);
+    }
+  }
+  const jr::PackedRows rows{entry_row.data(), row_start.data(), row_entry.data(), row_col.data()};
+  Eigen::MatrixXd M_lem(nv, nv);
+  Eigen::VectorXd Q_lem(nv);
+  for (int r = 0; r < nv; ++r) {
+    Q_lem[r] = Q[f.tree.dof_user[r]];
+    for (int c = 0; c < nv; ++c) M_lem(r, c) = M(f.tree.dof_user[r], f.tree.dof_user[c]);
+  }
+  Eigen::LLT<Eigen::MatrixXd> llt(M_lem);
+  ASSERT_EQ(llt.info(), Eigen::Success);
+  const Eigen::VectorXd ref = llt.solve(Q_lem);
+  // Both are backward-stable Cholesky solves: forward error <= c n eps cond(M).
+  const double cond = M_lem.norm() * llt.solve(Eigen::MatrixXd::Identity(nv, nv)).norm();
+  for (const bool ldlt : {false, true}) {
+    Eigen::VectorXd L(nnz), Dinv(nv), z = Q_lem;
+    jr::pack_mass_matrix(f.rt->model(), M.data(), L.data());
+    double pivot = 0.0;
+    ASSERT_EQ(jr::factor_packed(f.rt->model(), L.data(), Dinv.data(), ldlt, 1e-14, &pivot), -1);
+    jr::forward_packed(f.rt->model(), rows, L.data(), Dinv.data(), ldlt, z.data());
+    jr::backward_packed(f.rt->model(), rows, L.data(), Dinv.data(), ldlt, z.data());
+    EXPECT_LE((z - ref).norm() / ref.norm(), 10.0 * nv * kEps * cond) << (ldlt ? "ldlt" : "llt");
+  }
+}
+
 std::string case_name(const ::testing::TestParamInfo<testing::ModelCase>& info) {
   std::string n = info.param.name;
   for (char& c : n)

@@ -234,9 +234,11 @@ void unpack_constraint_jacobian(const Model& model, const ConstraintModel& cm, c
 // loops over the packed layout: for models whose unrolled code would be too
 // large to compile (the generator chooses).  Right-looking: column j (Lemma 2
 // order, leaves first) is final once its descendants are done; its pivot is
-// checked, its ancestor rows scaled, and the outer product of those rows is
+// checked, the outer product of its ancestor rows (over the pivot) is
 // subtracted from the columns of the ancestors (which are all in the chain,
-// so no fill-in, Lemma 2).
+// so no fill-in, Lemma 2), and the rows are scaled.  L L^T and L D L^T share
+// that order: only the final scale differs (1 / sqrt(pivot) or 1 / pivot),
+// so the square root is not on the chain from one column to the next.
 
 /// In-place L L^T (ldlt false) or L D L^T (ldlt true, D on the diagonal) of
 /// the packed M; Dinv[j] = 1 / pivot.  Returns -1, or the Lemma 2 dof whose
@@ -244,11 +246,31 @@ void unpack_constraint_jacobian(const Model& model, const ConstraintModel& cm, c
 std::int32_t factor_packed(const Model& model, double* L, double* Dinv, bool ldlt, double pivot_tolerance,
                            double* pivot);
 
+/// Row access to the packed factor, for the table-driven Steps 2 and 4.
+/// Walking a column's ancestors through dof_parent is a chain of dependent
+/// loads, and Step 2 by columns subtracts into the same few ancestor entries
+/// over and over; with these tables Step 4 gathers each column's ancestor
+/// entries by index, and Step 2 sums each row over its descendants (Remark 2)
+/// into a register.  The generator emits them for table-driven solvers;
+/// fill_packed_rows() computes the same tables at run time.
+struct PackedRows {
+  const std::int32_t* entry_row;  ///< (M_col_start[nv]) the row (dof) of each stored entry
+  const std::int32_t* row_start;  ///< (nv + 1) row j's off-diagonal entries are [row_start[j], row_start[j + 1])
+  const std::int32_t* row_entry;  ///< (M_col_start[nv] - nv) their positions in the packed L, by column ascending
+  const std::int32_t* row_col;    ///< (M_col_start[nv] - nv) their columns (descendants of the row's dof)
+};
+
+/// Fills the arrays of PackedRows (sizes as documented there) for model.
+void fill_packed_rows(const Model& model, std::int32_t* entry_row, std::int32_t* row_start, std::int32_t* row_entry,
+                      std::int32_t* row_col);
+
 /// Step 2, L z = Q in place (unit diagonal with ldlt: D^-1 waits for Step 4).
-void forward_packed(const Model& model, const double* L, const double* Dinv, bool ldlt, double* z);
+void forward_packed(const Model& model, const PackedRows& rows, const double* L, const double* Dinv, bool ldlt,
+                    double* z);
 
 /// Step 4, L^T x = z (ldlt: D^-1 applied first) in place.
-void backward_packed(const Model& model, const double* L, const double* Dinv, bool ldlt, double* z);
+void backward_packed(const Model& model, const PackedRows& rows, const double* L, const double* Dinv, bool ldlt,
+                     double* z);
 
 /// True when some x[i], i < n, is a NaN or an infinity (every exponent bit
 /// set).  Integer tests the compiler may reorder and vectorize: no chain of
