@@ -75,7 +75,11 @@ inline std::string dof_label(const topology::Tree& t, int dof) {
 
 // A function copying entries of a dense user-order matrix into a packed
 // workspace: dst[to[k]] = src[from[k]].  Straight-line when `unrolled`, else
-// a loop over two constant tables.
+// a loop over constant tables: a side that is the identity (to[k] = k, as
+// for packing M and gathering Q) gets no table, and an index table is 32-bit
+// when its entries fit.  The narrow, single table halves or thirds the index
+// bytes read per entry: packing the dense M of a 1059-dof tree took 3.5 us
+// with two tables (32- and 64-bit) and 1.9 us so (docs/benchmarks.md, run 6).
 inline std::string gather_function(const std::string& doc, const std::string& name, const std::string& src,
                                    const std::string& dst, const std::vector<long long>& to,
                                    const std::vector<long long>& from, bool unrolled) {
@@ -85,9 +89,21 @@ inline std::string gather_function(const std::string& doc, const std::string& na
   } else if (unrolled) {
     for (std::size_t k = 0; k < to.size(); ++k) out += fmt::format("  {}[{}] = {}[{}];\n", dst, to[k], src, from[k]);
   } else {
-    out += fmt::format("  static constexpr std::int32_t kTo[{}] = {{ {} }};\n", to.size(), join_ints(to));
-    out += fmt::format("  static constexpr std::int64_t kFrom[{}] = {{ {} }};\n", from.size(), join_ints(from));
-    out += fmt::format("  for (std::int32_t k = 0; k < {}; ++k) {}[kTo[k]] = {}[kFrom[k]];\n", to.size(), dst, src);
+    auto index = [&](const std::vector<long long>& table, const char* table_name) -> std::string {
+      bool identity = true, narrow = true;
+      for (std::size_t k = 0; k < table.size(); ++k) {
+        identity = identity && table[k] == static_cast<long long>(k);
+        narrow = narrow && table[k] <= 0x7fffffffLL;
+      }
+      if (identity) return "k";
+      out += fmt::format("  static constexpr std::{} {}[{}] = {{ {} }};\n", narrow ? "int32_t" : "int64_t", table_name,
+                         table.size(), join_ints(table));
+      return fmt::format("{}[k]", table_name);
+    };
+    const std::string to_index = index(to, "kTo");
+    const std::string from_index = index(from, "kFrom");
+    out += fmt::format("  for (std::int32_t k = 0; k < {}; ++k) {}[{}] = {}[{}];\n", to.size(), dst, to_index, src,
+                       from_index);
   }
   return out + "}";
 }
