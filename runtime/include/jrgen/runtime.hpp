@@ -230,8 +230,9 @@ void unpack_constraint_jacobian(const Model& model, const ConstraintModel& cm, c
 
 // ---- Table-driven factorization (large models) -------------------------------
 //
-// The same arithmetic as the generated straight-line Steps 1, 2 and 4, as
-// loops over the packed layout: for models whose unrolled code would be too
+// The factorization and substitutions of the generated straight-line Steps
+// 1, 2 and 4 (the same operations, in another order), as loops over the
+// packed layout: for models whose unrolled code would be too
 // large to compile (the generator chooses).  Right-looking: column j (Lemma 2
 // order, leaves first) is final once its descendants are done; its pivot is
 // checked, the outer product of its ancestor rows (over the pivot) is
