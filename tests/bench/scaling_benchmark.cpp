@@ -1,6 +1,6 @@
 // forward_dynamics against size, every model in one process (issue "First
 // benchmark": time linear in DOF on bounded-depth trees, 10000 vs 1000 DOF at
-// most 12x).  The solvers are the same generated libraries as the per-model
+// most 12x; issue 4: linear in DOF on bounded-depth trees and vehicle trains).  The solvers are the same generated libraries as the per-model
 // programs (tests/bench/CMakeLists.txt, bench_scaling).  Run it with
 // --benchmark_enable_random_interleaving=true and repetitions (as for
 // docs/benchmarks.md, run 3): the sizes then run interleaved in random order,
@@ -10,9 +10,12 @@
 // of bench_<model> (docs/benchmarks.md).
 //
 // Each benchmark cycles through 16 seeded random states (q, v, tau uniform in
-// [-1, 1]; quaternions are normalized by the solver), as bench_<model> does.
+// [-1, 1]; quaternions are normalized by the solver), as bench_<model> does;
+// the vehicle trains (closed loops) take the assembled zero configuration at
+// rest with random tau, as bench_train_<k> does.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <random>
 #include <string>
 #include <vector>
@@ -23,7 +26,8 @@ namespace {
 
 struct Solver {
   const char* name;
-  int nq, nv;
+  int nq, nv, nc, njoints;
+  const int* joint_q_index;
   int (*forward_dynamics)(const double*, const double*, const double*, double*, double*);
 };
 
@@ -40,6 +44,18 @@ States make_states(const Solver& s) {
     for (double& x : q) x = u(rng);
     for (double& x : v) x = u(rng);
     for (double& x : tau) x = u(rng);
+    if (s.nc > 0) {
+      // Closed loops (the trains): the assembled zero configuration, at
+      // rest, as bench_train_<k>; a random q would not close the hitches.
+      // Identity quaternions: a joint of 4 or 7 coordinates ends with one.
+      std::fill(q.begin(), q.end(), 0.0);
+      std::fill(v.begin(), v.end(), 0.0);
+      for (int j = 0; j < s.njoints; ++j) {
+        const int next = j + 1 < s.njoints ? s.joint_q_index[j + 1] : s.nq;
+        const int nqj = next - s.joint_q_index[j];
+        if (nqj == 4 || nqj == 7) q[next - 4] = 1.0;
+      }
+    }
     st.q.push_back(std::move(q));
     st.v.push_back(std::move(v));
     st.tau.push_back(std::move(tau));
@@ -49,10 +65,11 @@ States make_states(const Solver& s) {
 
 void forward_dynamics(benchmark::State& state, Solver s) {
   const States st = make_states(s);
-  std::vector<double> qdd(s.nv);
+  std::vector<double> qdd(s.nv), lambda(s.nc);
   std::size_t k = 0;
   for (auto _ : state) {
-    const int status = s.forward_dynamics(st.q[k].data(), st.v[k].data(), st.tau[k].data(), qdd.data(), nullptr);
+    const int status =
+        s.forward_dynamics(st.q[k].data(), st.v[k].data(), st.tau[k].data(), qdd.data(), lambda.data());
     benchmark::DoNotOptimize(status);
     benchmark::DoNotOptimize(qdd.data());
     benchmark::ClobberMemory();
@@ -65,7 +82,8 @@ void forward_dynamics(benchmark::State& state, Solver s) {
       benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
-#define JRGEN_SCALING_ENTRY(ns, label) Solver{label, ns::nq, ns::nv, &ns::forward_dynamics},
+#define JRGEN_SCALING_ENTRY(ns, label) \
+  Solver{label, ns::nq, ns::nv, ns::nc, ns::njoints, ns::joint_q_index, &ns::forward_dynamics},
 const Solver kSolvers[] = {JRGEN_SCALING_SOLVERS(JRGEN_SCALING_ENTRY)};
 
 int register_all() {

@@ -13,6 +13,8 @@
 
 #include JRGEN_TRAIN_HEADER
 
+namespace train = JRGEN_TRAIN_NS;
+
 namespace {
 
 constexpr int kVehicles = JRGEN_TRAIN_VEHICLES;
