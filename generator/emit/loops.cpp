@@ -744,22 +744,29 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
   k34 += k34s.ops;
   if (dense_schur) {
     // The same arithmetic as the unrolled factorization (and counted so), as
-    // the runtime's left-looking loops over the dense packed W.
+    // the runtime's left-looking loops over the dense packed W; up to
+    // kMaxFixedDenseSchur rows with m a compile-time constant (the _fixed
+    // variants: the compiler unrolls the loops), beyond as runtime loops.
+    const bool fixed = m <= kMaxFixedDenseSchur;
+    const std::string factor_call = fixed ? fmt::format("jr::schur_dense_factor_fixed<{}>(W, Winv, ", m)
+                                          : fmt::format("jr::schur_dense_factor(W, Winv, {}, ", m);
+    const std::string solve_call = fixed ? fmt::format("jr::schur_dense_solve_fixed<{}>(W, Winv, ", m)
+                                         : fmt::format("jr::schur_dense_solve(W, Winv, {}, ", m);
     s += fmt::format(
         "// ---- Step 3.4 (a): factor W = {0} in place (dense, m = {1}: the runtime's loops). ----\n"
         "// Ops: {2} add, {3} mul, {4} div, {5} sqrt.\n"
         "int step34_factor(double* __restrict W, double* __restrict Winv) {{\n"
         "  double pivot = 0.0;\n"
-        "  const std::int32_t position = jr::schur_dense_factor(W, Winv, {1}, {6}, kPivotTolerance, &pivot);\n"
+        "  const std::int32_t position = {10}{6}, kPivotTolerance, &pivot);\n"
         "  return position < 0 ? 0 : constraints_singular(kSchurOrder[position], pivot);\n"
         "}}\n\n"
         "// ---- Step 3.4 (b): solve W lambda = z_m in place. ----\n"
         "// Ops: {7} add, {8} mul, {9} div.\n"
         "void step34_solve(const double* __restrict W, const double* __restrict Winv, double* __restrict zm) {{\n"
-        "  jr::schur_dense_solve(W, Winv, {1}, kSchurOrder, {6}, g_zw, zm);\n"
+        "  {11}kSchurOrder, {6}, g_zw, zm);\n"
         "}}",
         ldlt ? "L_W D_W L_W^T" : "L_W L_W^T", m, k34f.ops.add, k34f.ops.mul, k34f.ops.div, k34f.ops.sqrt,
-        ldlt ? "true" : "false", k34s.ops.add, k34s.ops.mul, k34s.ops.div);
+        ldlt ? "true" : "false", k34s.ops.add, k34s.ops.mul, k34s.ops.div, factor_call, solve_call);
   } else {
     s += k34f.functions(
         "step34_factor", "double* W, double* Winv", "W, Winv", true,

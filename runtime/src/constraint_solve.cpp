@@ -136,7 +136,9 @@ void constraint_solve_lambda(const ConstraintSolveModel& cs, const double* W, co
   for (std::int32_t j = cs.nc - 1; j >= 0; --j) {  // backward, L_W^T lambda = y (D_W^-1 first with ldlt)
     const std::int32_t gj = cs.order[j];
     double s = ldlt ? zm[gj] * Winv[j] : zm[gj];
-    for (std::int32_t e = cs.W_col_start[j] + 1; e < cs.W_col_start[j + 1]; ++e) s -= W[e] * zm[cs.order[cs.W_row[e]]];
+    // The rows below, farthest first: the row solved just before (the
+    // nearest) enters last, as in schur_dense_solve().
+    for (std::int32_t e = cs.W_col_start[j + 1] - 1; e > cs.W_col_start[j]; --e) s -= W[e] * zm[cs.order[cs.W_row[e]]];
     zm[gj] = ldlt ? s : s * Winv[j];
   }
 }
@@ -154,10 +156,7 @@ void constraint_update(const ConstraintSolveModel& cs, const double* T, const do
 
 // ---- Dense Schur kernels ----
 
-namespace {
-// Column j of the dense packed lower triangle (rows j..m-1).
-inline std::int32_t dense_col(std::int32_t j, std::int32_t m) { return j * m - j * (j - 1) / 2; }
-}  // namespace
+using detail::dense_col;
 
 void schur_dense_gram(const double* A, const double* B, std::int32_t k, std::int32_t m, double* W) {
   for (std::int32_t j = 0; j < m; ++j) {
@@ -205,50 +204,12 @@ void schur_dense_gram(const double* A, const double* B, std::int32_t k, std::int
 
 std::int32_t schur_dense_factor(double* W, double* Winv, std::int32_t m, bool ldlt, double pivot_tolerance,
                                 double* pivot) {
-  for (std::int32_t j = 0; j < m; ++j) {
-    double* __restrict col = W + dense_col(j, m);
-    const std::int32_t len = m - j;
-    const double original = col[0];
-    // Left-looking: column j (rows j..m-1) less, for each column c left of
-    // it, its rows from j times its entry in row j (times D_c with LDL^T).
-    for (std::int32_t c = 0; c < j; ++c) {
-      const double* __restrict lc = W + dense_col(c, m) + (j - c);
-      const double a = ldlt ? lc[0] * W[dense_col(c, m)] : lc[0];
-      for (std::int32_t r = 0; r < len; ++r) col[r] -= lc[r] * a;
-    }
-    const double d = col[0];
-    if (!(d > pivot_tolerance * original)) {
-      *pivot = d;
-      return j;
-    }
-    const double diag = ldlt ? d : std::sqrt(d);
-    col[0] = diag;
-    const double inv = 1.0 / diag;
-    Winv[j] = inv;
-    for (std::int32_t r = 1; r < len; ++r) col[r] *= inv;
-  }
-  return -1;
+  return detail::schur_dense_factor_loops(W, Winv, m, ldlt, pivot_tolerance, pivot);
 }
 
 void schur_dense_solve(const double* W, const double* Winv, std::int32_t m, const std::int32_t* order, bool ldlt,
                        double* work, double* zm) {
-  for (std::int32_t j = 0; j < m; ++j) work[j] = zm[order[j]];
-  // Forward, by columns: y_j final, then subtracted from the rows below.
-  for (std::int32_t j = 0; j < m; ++j) {
-    const double* col = W + dense_col(j, m);
-    if (!ldlt) work[j] *= Winv[j];
-    const double y = work[j];
-    for (std::int32_t r = 1; r < m - j; ++r) work[j + r] -= col[r] * y;
-  }
-  // Backward, by columns: column j against the rows below (the products
-  // and their count as in the unrolled solve: no add to a zero).
-  for (std::int32_t j = m - 1; j >= 0; --j) {
-    const double* col = W + dense_col(j, m);
-    double s = ldlt ? work[j] * Winv[j] : work[j];
-    for (std::int32_t r = 1; r < m - j; ++r) s -= col[r] * work[j + r];
-    work[j] = ldlt ? s : s * Winv[j];
-  }
-  for (std::int32_t j = 0; j < m; ++j) zm[order[j]] = work[j];
+  detail::schur_dense_solve_loops(W, Winv, m, order, ldlt, work, zm);
 }
 
 }  // namespace jr

@@ -705,7 +705,12 @@ struct Recount {
 //   schur_dense_solve(W, Winv, m, order, ldlt, ...): forward and backward each
 //     m (m - 1) / 2 products and subtractions, and the scalings by Winv: m in
 //     each direction for L L^T, m in the backward one for L D L^T.
-bool count_dense_kernel(const std::string& line, Recount* rc) {
+//   The _fixed<m> variants take m as a template argument instead of the
+//   third argument: same loops, same counts.
+bool count_dense_kernel(const std::string& raw, Recount* rc) {
+  // jr::schur_dense_X_fixed<m>(W, Winv, ...) -> jr::schur_dense_X(W, Winv, m, ...)
+  static const std::regex kFixed(R"((jr::schur_dense_\w+)_fixed<(\d+)>\(([^,]+),([^,]+),)");
+  const std::string line = std::regex_replace(raw, kFixed, "$1($3,$4, $2,");
   auto args = [&](const std::string& name) {
     std::vector<std::string> out;
     const std::size_t at = line.find(name + "(");

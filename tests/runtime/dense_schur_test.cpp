@@ -8,6 +8,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Dense>
+#include <cmath>
 #include <numeric>
 #include <random>
 #include <vector>
@@ -113,6 +114,48 @@ TEST_P(DenseSchur, FactorMatchesEigenAndSolves) {
     jr::schur_dense_solve(W.data(), Winv.data(), m, order.data(), ldlt, work.data(), x.data());
     EXPECT_LE(relative_error(x, x_ref), 8 * m * kEps * cond) << (ldlt ? "ldlt" : "llt");
   }
+}
+
+// The _fixed<m> variants that the generated code calls (m a template
+// argument) run the same loops: bitwise the same factor and solution.  (With
+// FMA available the compiler may contract the unrolled and the looped code
+// differently: then the same to a few roundings.)
+template <typename V>
+void expect_same(const V& a, const V& b, const char* what) {
+#ifdef __FMA__
+  for (std::size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(a[i], b[i], 1e-13 * (1.0 + std::abs(a[i]))) << what;
+#else
+  EXPECT_EQ(a, b) << what;
+#endif
+}
+
+template <std::int32_t M>
+void expect_fixed_equals_runtime() {
+  const Case c(3, M, 7 + M);
+  std::vector<std::int32_t> order(M);
+  std::iota(order.begin(), order.end(), 0);
+  std::shuffle(order.begin(), order.end(), std::mt19937(M));
+  for (bool ldlt : {false, true}) {
+    std::vector<double> W1 = pack(c.W), W2 = W1, inv1(M), inv2(M), work(M);
+    double p1 = 0.0, p2 = 0.0;
+    ASSERT_EQ(jr::schur_dense_factor(W1.data(), inv1.data(), M, ldlt, 1e-14, &p1), -1);
+    ASSERT_EQ(jr::schur_dense_factor_fixed<M>(W2.data(), inv2.data(), ldlt, 1e-14, &p2), -1);
+    expect_same(W1, W2, "factor");
+    expect_same(inv1, inv2, "reciprocal pivots");
+    std::vector<double> x1(M), x2;
+    for (int i = 0; i < M; ++i) x1[i] = std::sin(1.0 + i);
+    x2 = x1;
+    jr::schur_dense_solve(W1.data(), inv1.data(), M, order.data(), ldlt, work.data(), x1.data());
+    jr::schur_dense_solve_fixed<M>(W2.data(), inv2.data(), order.data(), ldlt, work.data(), x2.data());
+    expect_same(x1, x2, ldlt ? "solve, ldlt" : "solve, llt");
+  }
+}
+
+TEST(DenseSchurFixed, SameResultsAsTheRuntimeLoops) {
+  expect_fixed_equals_runtime<1>();
+  expect_fixed_equals_runtime<5>();
+  expect_fixed_equals_runtime<16>();
+  expect_fixed_equals_runtime<32>();
 }
 
 TEST_P(DenseSchur, SingularPivotIsReportedAtItsPosition) {

@@ -20,7 +20,9 @@
 // lambda are in the user's row order; W is in elimination positions.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
+#include <type_traits>
 
 #include "jrgen/runtime.hpp"
 
@@ -95,5 +97,85 @@ std::int32_t schur_dense_factor(double* W, double* Winv, std::int32_t m, bool ld
 /// order[j] = kept row at elimination position j; work holds m doubles.
 void schur_dense_solve(const double* W, const double* Winv, std::int32_t m, const std::int32_t* order, bool ldlt,
                        double* work, double* zm);
+
+namespace detail {
+
+/// Column j of the dense packed lower triangle (rows j..m-1).
+constexpr std::int32_t dense_col(std::int32_t j, std::int32_t m) { return j * m - j * (j - 1) / 2; }
+
+// The loops of schur_dense_factor() and schur_dense_solve(), for a size m
+// known at run time (std::int32_t) or at compile time (std::integral_constant:
+// the _fixed variants below, which the generated code calls).
+template <class Size>
+inline std::int32_t schur_dense_factor_loops(double* W, double* Winv, Size m, bool ldlt, double pivot_tolerance,
+                                             double* pivot) {
+  for (std::int32_t j = 0; j < m; ++j) {
+    double* __restrict col = W + dense_col(j, m);
+    const std::int32_t len = m - j;
+    const double original = col[0];
+    // Left-looking: column j (rows j..m-1) less, for each column c left of
+    // it, its rows from j times its entry in row j (times D_c with LDL^T).
+    for (std::int32_t c = 0; c < j; ++c) {
+      const double* __restrict lc = W + dense_col(c, m) + (j - c);
+      const double a = ldlt ? lc[0] * W[dense_col(c, m)] : lc[0];
+      for (std::int32_t r = 0; r < len; ++r) col[r] -= lc[r] * a;
+    }
+    const double d = col[0];
+    if (!(d > pivot_tolerance * original)) {
+      *pivot = d;
+      return j;
+    }
+    const double diag = ldlt ? d : std::sqrt(d);
+    col[0] = diag;
+    const double inv = 1.0 / diag;
+    Winv[j] = inv;
+    for (std::int32_t r = 1; r < len; ++r) col[r] *= inv;
+  }
+  return -1;
+}
+
+template <class Size>
+inline void schur_dense_solve_loops(const double* W, const double* Winv, Size m, const std::int32_t* order,
+                                   bool ldlt, double* work, double* zm) {
+  for (std::int32_t j = 0; j < m; ++j) work[j] = zm[order[j]];
+  // Forward, by columns: y_j final, then subtracted from the rows below.
+  for (std::int32_t j = 0; j < m; ++j) {
+    const double* col = W + dense_col(j, m);
+    if (!ldlt) work[j] *= Winv[j];
+    const double y = work[j];
+    for (std::int32_t r = 1; r < m - j; ++r) work[j + r] -= col[r] * y;
+  }
+  // Backward, by columns: column j against the rows below (the products
+  // and their count as in the unrolled solve: no add to a zero), the row
+  // just solved (j + 1) last, so that only its product waits for it: the
+  // chain from one lambda to the next is one multiply and one subtraction,
+  // not a subtraction per row below.
+  for (std::int32_t j = m - 1; j >= 0; --j) {
+    const double* col = W + dense_col(j, m);
+    double s = ldlt ? work[j] * Winv[j] : work[j];
+    for (std::int32_t r = m - j - 1; r >= 1; --r) s -= col[r] * work[j + r];
+    work[j] = ldlt ? s : s * Winv[j];
+  }
+  for (std::int32_t j = 0; j < m; ++j) zm[order[j]] = work[j];
+}
+
+}  // namespace detail
+
+/// schur_dense_factor() and schur_dense_solve() for m known at compile time:
+/// the same loops and arithmetic (bitwise the same results), with every trip
+/// count a constant, so the compiler unrolls them and no loop exit is
+/// mispredicted (docs/benchmarks.md, run 6).
+template <std::int32_t M>
+inline std::int32_t schur_dense_factor_fixed(double* W, double* Winv, bool ldlt, double pivot_tolerance,
+                                             double* pivot) {
+  return detail::schur_dense_factor_loops(W, Winv, std::integral_constant<std::int32_t, M>{}, ldlt, pivot_tolerance,
+                                          pivot);
+}
+
+template <std::int32_t M>
+inline void schur_dense_solve_fixed(const double* W, const double* Winv, const std::int32_t* order, bool ldlt,
+                                    double* work, double* zm) {
+  detail::schur_dense_solve_loops(W, Winv, std::integral_constant<std::int32_t, M>{}, order, ldlt, work, zm);
+}
 
 }  // namespace jr
