@@ -54,8 +54,8 @@ inline constexpr long long kMaxGatherTable = 1 << 20;
 // Steps 3.3 and 3.4 (docs/benchmarks.md, run 4).
 inline constexpr int kMinDenseSchurRows = 8;
 // Up to this many rows the dense Step 3.4 calls the runtime's loops with m as
-// a template argument (jr::schur_dense_factor_fixed), which the compiler
-// unrolls; larger dense parts keep the loops with m at run time.
+// a template argument (jr::schur_dense_factor_fixed), whose trip counts the
+// compiler then knows; larger dense parts keep the loops with m at run time.
 inline constexpr int kMaxFixedDenseSchur = 32;
 // Sums of more products than this are split into partial sums.
 inline constexpr std::size_t kMaxTermsPerStatement = 8;

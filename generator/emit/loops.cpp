@@ -746,7 +746,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
     // The same arithmetic as the unrolled factorization (and counted so), as
     // the runtime's left-looking loops over the dense packed W; up to
     // kMaxFixedDenseSchur rows with m a compile-time constant (the _fixed
-    // variants: the compiler unrolls the loops), beyond as runtime loops.
+    // variants: every trip count known), beyond as runtime loops.
     const bool fixed = m <= kMaxFixedDenseSchur;
     const std::string factor_call = fixed ? fmt::format("jr::schur_dense_factor_fixed<{}>(W, Winv, ", m)
                                           : fmt::format("jr::schur_dense_factor(W, Winv, {}, ", m);

@@ -163,8 +163,8 @@ inline void schur_dense_solve_loops(const double* W, const double* Winv, Size m,
 
 /// schur_dense_factor() and schur_dense_solve() for m known at compile time:
 /// the same loops and arithmetic (bitwise the same results), with every trip
-/// count a constant, so the compiler unrolls them and no loop exit is
-/// mispredicted (docs/benchmarks.md, run 6).
+/// count a constant the compiler can unroll (docs/benchmarks.md, run 6: the
+/// HMMWV's m = 16 solve 2.01 -> 1.92 us).
 template <std::int32_t M>
 inline std::int32_t schur_dense_factor_fixed(double* W, double* Winv, bool ldlt, double pivot_tolerance,
                                              double* pivot) {
