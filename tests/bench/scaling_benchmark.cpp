@@ -1,6 +1,7 @@
 // forward_dynamics against size, every model in one process (issue "First
 // benchmark": time linear in DOF on bounded-depth trees, 10000 vs 1000 DOF at
-// most 12x; issue 4: linear in DOF on bounded-depth trees and vehicle trains).  The solvers are the same generated libraries as the per-model
+// most 12x; issue 4: linear in DOF on bounded-depth trees and vehicle
+// trains).  The solvers are the same generated libraries as the per-model
 // programs (tests/bench/CMakeLists.txt, bench_scaling).  Run it with
 // --benchmark_enable_random_interleaving=true and repetitions (as for
 // docs/benchmarks.md, run 3): the sizes then run interleaved in random order,
