@@ -436,7 +436,7 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
 
   // Shape of Steps 1, 2 and 4: straight-line code while it stays small
   // enough to compile quickly; beyond that, the runtime's loops over the same
-  // packed layout (same arithmetic, no fill-in either way).  Trees (no Step 3
+  // packed layout (the same factor, no fill-in either way).  Trees (no Step 3
   // reading the packed L) may instead get the supernodal shape, when a long
   // run of single-child dofs makes a dense block, or the parallel one
   // (Corollary 3), for large trees.
@@ -467,10 +467,22 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
     k2 = step2(t, desc, options.method);
     k4 = step4(t, options.method);
   } else {
+    // The runtime's column loop (factor_packed, and the columns of the
+    // parallel shape), the same for both methods: one reciprocal pivot, a
+    // product w_a / d per ancestor row, the update products, and the scaling
+    // of the rows; L L^T adds l = sqrt(d) and its scale l / d
+    // (jr::detail::row_scale).  The supernodal shape's dense blocks run
+    // Eigen's kernels instead and are counted as if they ran this loop.
     const bool l = options.method == Method::kLDLT;
-    k1.ops = {products, products + (l ? 2 : 1) * chain, t.nv, l ? 0 : t.nv};
+    k1.ops = {products, products + 2 * chain + (l ? 0 : t.nv), t.nv, l ? 0 : t.nv};
     k2.ops = {chain, chain + (l ? 0 : t.nv), 0, 0};
     k4.ops = {chain, chain + t.nv, 0, 0};
+    if (shape == Shape::kTable) {
+      // forward_packed and backward_packed keep two partial sums per row:
+      // one more addition each (the other shapes' loops keep one).
+      k2.ops.add += t.nv;
+      k4.ops.add += t.nv;
+    }
   }
 
   const bool gravity = !options.gravity.isZero(0.0);

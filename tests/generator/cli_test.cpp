@@ -1012,6 +1012,45 @@ TEST(CliReportByHand, DoublePendulumLDLT) {
   EXPECT_EQ(g.table.counts[3][8], 0);
 }
 
+// The same double pendulum with the runtime's table-driven Steps 1, 2, 4
+// (internal, test-only JRGEN_UNROLL_LIMIT=0): the counts of the loops of
+// runtime/src/runtime.cpp, by hand.  factor_packed, per column: dinv = 1 / d
+// (1 D); L L^T: l = sqrt(d) (1 SQ), its scale l * dinv (1 M); per ancestor
+// row f = w * dinv (1 M), the update (1 M, 1 A per product), the scaling of
+// the row (1 M).  forward_packed / backward_packed: two partial sums per row,
+// added at the end (1 A per row), one product and subtraction per entry, and
+// the scalings by Dinv as in the straight-line code.
+//   L L^T:  Step 1  col 0: D, SQ, M (scale), M (f), M + A (update), M (row)
+//                   col 1: D, SQ, M (scale)             A 1, M 5, D 2, SQ 2
+//           Step 2  row 0: A, M;  row 1: M + A, A, M    A 3, M 3
+//           Step 4  col 1: A, M;  col 0: M + A, A, M    A 3, M 3
+//   L D L^T: Step 1 col 0: D, M (f), M + A, M (row); col 1: D   A 1, M 3, D 2
+//           Step 2  row 0: A;  row 1: M + A, A          A 3, M 1
+//           Step 4  col 1: M, A;  col 0: M, M + A, A    A 3, M 3
+class TableDriven : public ::testing::Test {
+ protected:
+  void SetUp() override { setenv("JRGEN_UNROLL_LIMIT", "0", 1); }
+  void TearDown() override { unsetenv("JRGEN_UNROLL_LIMIT"); }
+};
+
+TEST_F(TableDriven, DoublePendulumLLTCountsTheRuntimeLoops) {
+  Generated g;
+  ASSERT_NO_FATAL_FAILURE(generate({(kCliDir / "double_pendulum.urdf").string()}, &g));
+  ASSERT_TRUE(contains(g.cpp, "jr::factor_packed(")) << "not the table-driven shape";
+  expect_counts(g.table, "1", 1, 5, 2, 2);
+  expect_counts(g.table, "2", 3, 3, 0, 0);
+  expect_counts(g.table, "4", 3, 3, 0, 0);
+}
+
+TEST_F(TableDriven, DoublePendulumLDLTCountsTheRuntimeLoops) {
+  Generated g;
+  ASSERT_NO_FATAL_FAILURE(generate({(kCliDir / "double_pendulum.urdf").string(), "--method", "ldlt"}, &g));
+  ASSERT_TRUE(contains(g.cpp, "jr::factor_packed(")) << "not the table-driven shape";
+  expect_counts(g.table, "1", 1, 3, 2, 0);
+  expect_counts(g.table, "2", 3, 1, 0, 0);
+  expect_counts(g.table, "4", 3, 3, 0, 0);
+}
+
 // The recount itself, on a hand-written snippet.
 TEST(CliReportByHand, RecountCountsWhatItShould) {
   const std::string code =
