@@ -747,11 +747,10 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
     // the runtime's left-looking loops over the dense packed W; up to
     // kMaxFixedDenseSchur rows with m a compile-time constant (the _fixed
     // variants: every trip count known), beyond as runtime loops.
-    const bool fixed = m <= kMaxFixedDenseSchur;
-    const std::string factor_call = fixed ? fmt::format("jr::schur_dense_factor_fixed<{}>(W, Winv, ", m)
-                                          : fmt::format("jr::schur_dense_factor(W, Winv, {}, ", m);
-    const std::string solve_call = fixed ? fmt::format("jr::schur_dense_solve_fixed<{}>(W, Winv, ", m)
-                                         : fmt::format("jr::schur_dense_solve(W, Winv, {}, ", m);
+    auto call = [&](const char* kernel) {
+      return m <= kMaxFixedDenseSchur ? fmt::format("jr::{}_fixed<{}>(W, Winv, ", kernel, m)
+                                      : fmt::format("jr::{}(W, Winv, {}, ", kernel, m);
+    };
     s += fmt::format(
         "// ---- Step 3.4 (a): factor W = {0} in place (dense, m = {1}: the runtime's loops). ----\n"
         "// Ops: {2} add, {3} mul, {4} div, {5} sqrt.\n"
@@ -766,7 +765,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
         "  {11}kSchurOrder, {6}, g_zw, zm);\n"
         "}}",
         ldlt ? "L_W D_W L_W^T" : "L_W L_W^T", m, k34f.ops.add, k34f.ops.mul, k34f.ops.div, k34f.ops.sqrt,
-        ldlt ? "true" : "false", k34s.ops.add, k34s.ops.mul, k34s.ops.div, factor_call, solve_call);
+        ldlt ? "true" : "false", k34s.ops.add, k34s.ops.mul, k34s.ops.div, call("schur_dense_factor"), call("schur_dense_solve"));
   } else {
     s += k34f.functions(
         "step34_factor", "double* W, double* Winv", "W, Winv", true,
