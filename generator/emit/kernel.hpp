@@ -53,9 +53,11 @@ inline constexpr long long kMaxGatherTable = 1 << 20;
 // common dofs (T^T T dense), get the runtime's dense loops for that part of
 // Steps 3.3 and 3.4 (docs/benchmarks.md, run 4).
 inline constexpr int kMinDenseSchurRows = 8;
-// Up to this many rows the dense Step 3.4 calls the runtime's loops with m as
-// a template argument (jr::schur_dense_factor_fixed), whose trip counts the
-// compiler then knows; larger dense parts keep the loops with m at run time.
+// Up to this many rows the dense Steps 3.3 and 3.4 call the runtime's loops
+// with the sizes as template arguments (jr::schur_dense_gram_fixed,
+// jr::schur_dense_factor_fixed, jr::schur_dense_solve_fixed), whose trip
+// counts the compiler then knows; larger dense parts keep the loops with the
+// sizes at run time.
 inline constexpr int kMaxFixedDenseSchur = 32;
 // Sums of more products than this are split into partial sums.
 inline constexpr std::size_t kMaxTermsPerStatement = 8;

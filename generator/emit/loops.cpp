@@ -557,8 +557,11 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
     u.lines.push_back(fmt::format("// dense part: the {} dofs {} to {} reached by every row ({} .. {})", dense_dofs,
                                   dense_first, dense_first + dense_dofs - 1, dof_label(t, dense_first),
                                   dof_label(t, dense_first + dense_dofs - 1)));
-    u.lines.push_back(fmt::format("jr::schur_dense_gram({0} + {1}, T + {1}, {2}, {3}, W);", ldlt ? "V" : "T",
-                                  td.start[dense_first], dense_dofs, m));
+    const std::string A = fmt::format("{} + {}", ldlt ? "V" : "T", td.start[dense_first]);
+    const std::string B = fmt::format("T + {}", td.start[dense_first]);
+    u.lines.push_back(m <= kMaxFixedDenseSchur
+                          ? fmt::format("jr::schur_dense_gram_fixed<{}, {}>({}, {}, W);", dense_dofs, m, A, B)
+                          : fmt::format("jr::schur_dense_gram({}, {}, {}, {}, W);", A, B, dense_dofs, m));
     ++u.statements;
     const long long entries = static_cast<long long>(m) * (m + 1) / 2;
     k33.ops.mul += entries * dense_dofs;
@@ -740,13 +743,25 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
                   "Ops: {} add, {} mul, {} div.",
                   ldlt ? "U^T D^-1 U = V^T U" : "T^T T", m, k33.ops.add, k33.ops.mul, k33.ops.div));
   s += "\n\n";
+  if (dense_schur) {
+    // The runtime's right-looking loops factor in the order of L D L^T
+    // (jrgen/constraint_solve.hpp): m (m^2 - 1) / 6 products and
+    // subtractions, one product f = w / d per pair of columns, one division
+    // per pivot; L L^T then scales each column by 1 / sqrt(d) = sqrt(d) / d
+    // (a square root and a product per pivot, a product per entry).  The
+    // solve does the arithmetic of the unrolled one, counted above.
+    const long long mm = m, updates = mm * (mm * mm - 1) / 6, below = mm * (mm - 1) / 2;
+    k34f.ops = OpCount{};
+    k34f.ops.add = updates;
+    k34f.ops.mul = updates + below + (ldlt ? 0 : below + mm);
+    k34f.ops.div = mm;
+    k34f.ops.sqrt = ldlt ? 0 : mm;
+  }
   OpCount k34 = k34f.ops;
   k34 += k34s.ops;
   if (dense_schur) {
-    // The same arithmetic as the unrolled factorization (and counted so), as
-    // the runtime's left-looking loops over the dense packed W; up to
-    // kMaxFixedDenseSchur rows with m a compile-time constant (the _fixed
-    // variants: every trip count known), beyond as runtime loops.
+    // Up to kMaxFixedDenseSchur rows with m a compile-time constant (the
+    // _fixed variants: every trip count known), beyond as runtime loops.
     auto call = [&](const char* kernel) {
       return m <= kMaxFixedDenseSchur ? fmt::format("jr::{}_fixed<{}>(W, Winv, ", kernel, m)
                                       : fmt::format("jr::{}(W, Winv, {}, ", kernel, m);

@@ -54,7 +54,11 @@ std::string operation_report(const ir::Robot& robot, const topology::Tree& tree,
          "Where the paper divides (each entry of L by its pivot), the emitted code\n"
          "multiplies by one reciprocal per pivot, so some of the paper's D appear here\n"
          "as M; Step 3.4 here also counts the two triangular solves for lambda, which\n"
-         "Table 2 leaves out (its 680 additions are the factorization alone).\n";
+         "Table 2 leaves out (its 680 additions are the factorization alone).  A dense\n"
+         "Step 3.4 (every row reaching a common dof, as the HMMWV's chassis) factors in\n"
+         "the order of L D L^T, one product w / d per entry, and L L^T then scales each\n"
+         "column by 1 / sqrt(d): one more product per entry, for a shorter serial chain\n"
+         "from one pivot to the next (docs/benchmarks.md, run 7).\n";
   if (tree.nv == 27 && tree.nc() == 16) {
     const long long alg_s[4] = {3871, 4258, 513, 43};
     const long long ours[4] = {total.add, total.mul, total.div, total.sqrt};

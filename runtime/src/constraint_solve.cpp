@@ -159,47 +159,7 @@ void constraint_update(const ConstraintSolveModel& cs, const double* T, const do
 using detail::dense_col;
 
 void schur_dense_gram(const double* A, const double* B, std::int32_t k, std::int32_t m, double* W) {
-  for (std::int32_t j = 0; j < m; ++j) {
-    double* __restrict col = W + dense_col(j, m);
-    const std::int32_t len = m - j;
-    // W[j + r, j] = sum_i A[i, j + r] B[i, j]: the first (up to) four dofs
-    // assign, the rest accumulate, four at a time.
-    if (k == 0)
-      for (std::int32_t r = 0; r < len; ++r) col[r] = 0.0;
-    for (std::int32_t i = 0; i < k; i += 4) {
-      const std::int32_t n = k - i < 4 ? k - i : 4;
-      const std::int64_t at = static_cast<std::int64_t>(i) * m + j;
-      const double* x0 = A + at;
-      const double b0 = B[at];
-      if (n == 4) {
-        const double *x1 = x0 + m, *x2 = x0 + 2 * m, *x3 = x0 + 3 * m;
-        const double b1 = B[at + m], b2 = B[at + 2 * m], b3 = B[at + 3 * m];
-        if (i == 0)
-          for (std::int32_t r = 0; r < len; ++r) col[r] = (b0 * x0[r] + b1 * x1[r]) + (b2 * x2[r] + b3 * x3[r]);
-        else
-          for (std::int32_t r = 0; r < len; ++r) col[r] += (b0 * x0[r] + b1 * x1[r]) + (b2 * x2[r] + b3 * x3[r]);
-      } else if (n == 3) {
-        const double *x1 = x0 + m, *x2 = x0 + 2 * m;
-        const double b1 = B[at + m], b2 = B[at + 2 * m];
-        if (i == 0)
-          for (std::int32_t r = 0; r < len; ++r) col[r] = (b0 * x0[r] + b1 * x1[r]) + b2 * x2[r];
-        else
-          for (std::int32_t r = 0; r < len; ++r) col[r] += (b0 * x0[r] + b1 * x1[r]) + b2 * x2[r];
-      } else if (n == 2) {
-        const double* x1 = x0 + m;
-        const double b1 = B[at + m];
-        if (i == 0)
-          for (std::int32_t r = 0; r < len; ++r) col[r] = b0 * x0[r] + b1 * x1[r];
-        else
-          for (std::int32_t r = 0; r < len; ++r) col[r] += b0 * x0[r] + b1 * x1[r];
-      } else {
-        if (i == 0)
-          for (std::int32_t r = 0; r < len; ++r) col[r] = b0 * x0[r];
-        else
-          for (std::int32_t r = 0; r < len; ++r) col[r] += b0 * x0[r];
-      }
-    }
-  }
+  detail::schur_dense_gram_loops(A, B, k, m, W);
 }
 
 std::int32_t schur_dense_factor(double* W, double* Winv, std::int32_t m, bool ldlt, double pivot_tolerance,

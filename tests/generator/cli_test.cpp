@@ -698,19 +698,24 @@ struct Recount {
 // arithmetic, counted by hand from the loops, from the call's size arguments.
 //   schur_dense_gram(A, B, k, m, W): each of the m(m+1)/2 entries is a k-term
 //     dot product: k M, k - 1 A.
-//   schur_dense_factor(W, Winv, m, ldlt, ...): column j takes j column updates
-//     of its m - j rows (j (m - j) M and A; L D L^T: j more M for the
-//     products with D), then one reciprocal (D), m - 1 - j scalings (M) and,
-//     for L L^T, one square root.
+//   schur_dense_factor(W, Winv, m, ldlt, ...): right-looking; pivot j is
+//     one reciprocal (D), then each later column s takes f = w[s, j] / d_j
+//     (one M) and updates its m - s rows (m - s M and A).  L L^T then scales
+//     each column: a square root, 1 / sqrt(d) = sqrt(d) * (1 / d) (one M)
+//     and m - 1 - j products.
 //   schur_dense_solve(W, Winv, m, order, ldlt, ...): forward and backward each
 //     m (m - 1) / 2 products and subtractions, and the scalings by Winv: m in
 //     each direction for L L^T, m in the backward one for L D L^T.
-//   The _fixed<m> variants take m as a template argument instead of the
-//   third argument: same loops, same counts.
+//   The _fixed variants take the sizes as template arguments instead
+//   (gram_fixed<k, m>(A, B, W), factor_fixed<m>(W, Winv, ...),
+//   solve_fixed<m>(W, Winv, ...)): same loops, same counts.
 bool count_dense_kernel(const std::string& raw, Recount* rc) {
+  // jr::schur_dense_gram_fixed<k, m>(A, B, W) -> jr::schur_dense_gram(A, B, k, m, W)
+  static const std::regex kGramFixed(R"(jr::schur_dense_gram_fixed<(\d+), (\d+)>\(([^,]+),([^,]+),)");
   // jr::schur_dense_X_fixed<m>(W, Winv, ...) -> jr::schur_dense_X(W, Winv, m, ...)
   static const std::regex kFixed(R"((jr::schur_dense_\w+)_fixed<(\d+)>\(([^,]+),([^,]+),)");
-  const std::string line = std::regex_replace(raw, kFixed, "$1($3,$4, $2,");
+  const std::string line = std::regex_replace(std::regex_replace(raw, kGramFixed, "jr::schur_dense_gram($3,$4, $1, $2,"),
+                                              kFixed, "$1($3,$4, $2,");
   auto args = [&](const std::string& name) {
     std::vector<std::string> out;
     const std::size_t at = line.find(name + "(");
@@ -741,10 +746,15 @@ bool count_dense_kernel(const std::string& raw, Recount* rc) {
     const long long m = std::stoll(a.at(2));
     const bool ldlt = a.at(3) == "true";
     for (long long j = 0; j < m; ++j) {
-      rc->mul += j * (m - j) + (ldlt ? j : 0) + (m - 1 - j);
-      rc->add += j * (m - j);
       rc->div += 1;
-      if (!ldlt) rc->sqrt += 1;
+      for (long long s = j + 1; s < m; ++s) {
+        rc->mul += 1 + (m - s);
+        rc->add += m - s;
+      }
+      if (!ldlt) {
+        rc->sqrt += 1;
+        rc->mul += 1 + (m - 1 - j);
+      }
     }
     return true;
   }

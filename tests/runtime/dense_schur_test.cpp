@@ -129,9 +129,15 @@ void expect_same(const V& a, const V& b, const char* what) {
 #endif
 }
 
-template <std::int32_t M>
+template <std::int32_t K, std::int32_t M>
 void expect_fixed_equals_runtime() {
-  const Case c(3, M, 7 + M);
+  const Case c(K, M, 7 + M);
+  {
+    std::vector<double> G1(M * (M + 1) / 2, -1.0), G2(G1.size(), -2.0);
+    jr::schur_dense_gram(c.A.data(), c.B.data(), K, M, G1.data());
+    jr::schur_dense_gram_fixed<K, M>(c.A.data(), c.B.data(), G2.data());
+    expect_same(G1, G2, "gram");
+  }
   std::vector<std::int32_t> order(M);
   std::iota(order.begin(), order.end(), 0);
   std::shuffle(order.begin(), order.end(), std::mt19937(M));
@@ -152,10 +158,10 @@ void expect_fixed_equals_runtime() {
 }
 
 TEST(DenseSchurFixed, SameResultsAsTheRuntimeLoops) {
-  expect_fixed_equals_runtime<1>();
-  expect_fixed_equals_runtime<5>();
-  expect_fixed_equals_runtime<16>();
-  expect_fixed_equals_runtime<32>();
+  expect_fixed_equals_runtime<3, 1>();
+  expect_fixed_equals_runtime<1, 5>();
+  expect_fixed_equals_runtime<6, 16>();
+  expect_fixed_equals_runtime<7, 32>();
 }
 
 TEST_P(DenseSchur, SingularPivotIsReportedAtItsPosition) {

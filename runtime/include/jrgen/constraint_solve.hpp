@@ -25,6 +25,7 @@
 #include <type_traits>
 
 #include "jrgen/runtime.hpp"
+#include "jrgen/simd.hpp"
 
 namespace jr {
 
@@ -87,9 +88,10 @@ void constraint_update(const ConstraintSolveModel& cs, const double* T, const do
 /// order).  With B = A (LL^T) or A = V = D^-1 U, B = U (LDL^T).
 void schur_dense_gram(const double* A, const double* B, std::int32_t k, std::int32_t m, double* W);
 
-/// Step 3.4 (a), dense: W = L_W L_W^T (or L_W D_W L_W^T) in place, left-looking;
-/// Winv[j] = 1 / pivot j.  Returns -1, or the elimination position whose pivot
-/// was <= pivot_tolerance * W[j, j] (or NaN), with the pivot in *pivot.
+/// Step 3.4 (a), dense: W = L_W L_W^T (or L_W D_W L_W^T) in place,
+/// right-looking; Winv[j] = 1 / pivot j.  Returns -1, or the elimination
+/// position whose pivot was <= pivot_tolerance * W[j, j] (or NaN), with the
+/// pivot in *pivot.
 std::int32_t schur_dense_factor(double* W, double* Winv, std::int32_t m, bool ldlt, double pivot_tolerance,
                                 double* pivot);
 
@@ -103,68 +105,259 @@ namespace detail {
 /// Column j of the dense packed lower triangle (rows j..m-1).
 constexpr std::int32_t dense_col(std::int32_t j, std::int32_t m) { return j * m - j * (j - 1) / 2; }
 
-// The loops of schur_dense_factor() and schur_dense_solve(), for a size m
-// known at run time (std::int32_t) or at compile time (std::integral_constant:
-// the _fixed variants below, which the generated code calls).
+// The loops of the dense kernels, for sizes known at run time (std::int32_t)
+// or at compile time (std::integral_constant: the _fixed variants below,
+// which the generated code calls).  They work on pairs of rows (jr::v2d: one
+// SSE2 or NEON instruction per pair) and walk the packed columns with
+// pointers; the arithmetic of each entry is that of the scalar formulas in
+// the comments, in the order written there (so the _fixed and run-time
+// variants give bitwise the same results).
+
+// x[0..n) -= y[0..n) * f, by pairs.
+inline void axpy_sub(double* __restrict x, const double* __restrict y, double f, std::int32_t n) {
+  std::int32_t r = 0;
+  for (; r + 2 <= n; r += 2) store2(x + r, load2(x + r) - load2(y + r) * f);
+  if (r < n) x[r] -= y[r] * f;
+}
+
+// x[0..n) = (x - y f) - z g, by pairs.
+inline void axpy2_sub(double* __restrict x, const double* __restrict y, double f, const double* __restrict z,
+                      double g, std::int32_t n) {
+  std::int32_t r = 0;
+  for (; r + 2 <= n; r += 2) store2(x + r, (load2(x + r) - load2(y + r) * f) - load2(z + r) * g);
+  if (r < n) x[r] = (x[r] - y[r] * f) - z[r] * g;
+}
+
+// x[0..n) *= f, by pairs.
+inline void scale(double* __restrict x, double f, std::int32_t n) {
+  std::int32_t r = 0;
+  for (; r + 2 <= n; r += 2) store2(x + r, load2(x + r) * f);
+  if (r < n) x[r] *= f;
+}
+
+// W[j + r, j] = sum_i A[i, j + r] B[i, j] (i = 0..k-1, the first term
+// assigned, the others added in order), two columns at a time: columns j and
+// j + 1 share the loads of A for their rows j + 2 and below.
+template <class K, class Size>
+inline void schur_dense_gram_loops(const double* __restrict A, const double* __restrict B, K k, Size m,
+                                   double* __restrict W) {
+  double* col = W;
+  std::int32_t j = 0;
+  for (; j + 1 < m; j += 2) {
+    double* col1 = col + (m - j);  // column j + 1, from its diagonal
+    // The three entries of rows j and j + 1.
+    double wjj = 0.0, wj1j = 0.0, wj1j1 = 0.0;
+    for (std::int32_t i = 0; i < k; ++i) {
+      const double* a = A + static_cast<std::int64_t>(i) * m + j;
+      const double* b = B + static_cast<std::int64_t>(i) * m + j;
+      if (i == 0) {
+        wjj = a[0] * b[0];
+        wj1j = a[1] * b[0];
+        wj1j1 = a[1] * b[1];
+      } else {
+        wjj += a[0] * b[0];
+        wj1j += a[1] * b[0];
+        wj1j1 += a[1] * b[1];
+      }
+    }
+    col[0] = wjj;
+    col[1] = wj1j;
+    col1[0] = wj1j1;
+    // Rows j + 2 .. m - 1 of both columns.
+    const std::int32_t n = m - j - 2;
+    std::int32_t r = 0;
+    for (; r + 2 <= n; r += 2) {
+      v2d s0 = set2(0.0, 0.0), s1 = set2(0.0, 0.0);
+      for (std::int32_t i = 0; i < k; ++i) {
+        const std::int64_t row = static_cast<std::int64_t>(i) * m;
+        const v2d a = load2(A + row + j + 2 + r);
+        if (i == 0) {
+          s0 = a * B[row + j];
+          s1 = a * B[row + j + 1];
+        } else {
+          s0 += a * B[row + j];
+          s1 += a * B[row + j + 1];
+        }
+      }
+      store2(col + 2 + r, s0);
+      store2(col1 + 1 + r, s1);
+    }
+    if (r < n) {
+      double s0 = 0.0, s1 = 0.0;
+      for (std::int32_t i = 0; i < k; ++i) {
+        const std::int64_t row = static_cast<std::int64_t>(i) * m;
+        const double a = A[row + j + 2 + r];
+        if (i == 0) {
+          s0 = a * B[row + j];
+          s1 = a * B[row + j + 1];
+        } else {
+          s0 += a * B[row + j];
+          s1 += a * B[row + j + 1];
+        }
+      }
+      col[2 + r] = s0;
+      col1[1 + r] = s1;
+    }
+    col = col1 + (m - j - 1);
+  }
+  if (j < m) {  // the last column alone (m odd)
+    double s = 0.0;
+    for (std::int32_t i = 0; i < k; ++i) {
+      const std::int64_t at = static_cast<std::int64_t>(i) * m + j;
+      s = i == 0 ? A[at] * B[at] : s + A[at] * B[at];
+    }
+    col[0] = s;
+  }
+}
+
+// Right-looking, in the order of L D L^T: pivot d_j = w_jj, then every
+// later column s gets w[r, s] -= w[r, j] * f_s with f_s = w[s, j] / d_j
+// (one multiplication by 1/d_j), two pivot columns per pass over the
+// trailing columns.  The next pivots are carried in registers (d0 of the
+// next pass is the first trailing diagonal, d1 the next column's diagonal),
+// so the serial chain from one pivot to the next is one division, two
+// multiplications and a subtraction, without a store and a reload; the
+// square root of L L^T and its scaling of column j (L[r, j] = w[r, j] /
+// sqrt(d_j)) come after the elimination, off that chain.  With L D L^T the
+// f_s are the factor's entries themselves and are stored in place of w.
+// Winv holds the original diagonal until pivot j replaces it by 1 / d_j
+// (and, L L^T, then 1 / sqrt(d_j)).
 template <class Size>
 inline std::int32_t schur_dense_factor_loops(double* W, double* Winv, Size m, bool ldlt, double pivot_tolerance,
                                              double* pivot) {
-  for (std::int32_t j = 0; j < m; ++j) {
-    double* __restrict col = W + dense_col(j, m);
-    const std::int32_t len = m - j;
-    const double original = col[0];
-    // Left-looking: column j (rows j..m-1) less, for each column c left of
-    // it, its rows from j times its entry in row j (times D_c with LDL^T).
-    for (std::int32_t c = 0; c < j; ++c) {
-      const double* __restrict lc = W + dense_col(c, m) + (j - c);
-      const double a = ldlt ? lc[0] * W[dense_col(c, m)] : lc[0];
-      for (std::int32_t r = 0; r < len; ++r) col[r] -= lc[r] * a;
+  {
+    const double* diag = W;
+    for (std::int32_t j = 0; j < m; ++j) {
+      Winv[j] = diag[0];
+      diag += m - j;
     }
-    const double d = col[0];
-    if (!(d > pivot_tolerance * original)) {
+  }
+  // Pivot j, value d: 1 / d into Winv[j], or false if not positive.
+  auto take_pivot = [&](double d, std::int32_t j) {
+    if (!(d > pivot_tolerance * Winv[j])) {
       *pivot = d;
-      return j;
+      return false;
     }
-    const double diag = ldlt ? d : std::sqrt(d);
-    col[0] = diag;
-    const double inv = 1.0 / diag;
-    Winv[j] = inv;
-    for (std::int32_t r = 1; r < len; ++r) col[r] *= inv;
+    Winv[j] = 1.0 / d;
+    return true;
+  };
+  double* cj = W;
+  double d0 = m > 0 ? W[0] : 0.0;  // pivot of column j, all earlier columns subtracted
+  std::int32_t j = 0;
+  for (; j + 1 < m; j += 2) {
+    const std::int32_t len = m - j;  // rows j..m-1 of column j
+    double* c1 = cj + len;           // column j + 1: rows j+1..m-1
+    if (!take_pivot(d0, j)) return j;
+    const double d0inv = Winv[j];
+    const double f = cj[1] * d0inv;
+    const double d1 = c1[0] - cj[1] * f;
+    c1[0] = d1;
+    axpy_sub(c1 + 1, cj + 2, f, len - 2);
+    if (ldlt) cj[1] = f;
+    if (!take_pivot(d1, j + 1)) return j + 1;
+    const double d1inv = Winv[j + 1];
+    double* cs = c1 + (len - 1);  // column j + s from its diagonal
+    for (std::int32_t s = 2; s < len; ++s) {
+      const double f0 = cj[s] * d0inv, f1 = c1[s - 1] * d1inv;
+      if (s == 2) {
+        d0 = (cs[0] - cj[2] * f0) - c1[1] * f1;  // the next pass's pivot
+        cs[0] = d0;
+        axpy2_sub(cs + 1, cj + 3, f0, c1 + 2, f1, len - 3);
+      } else {
+        axpy2_sub(cs, cj + s, f0, c1 + (s - 1), f1, len - s);
+      }
+      if (ldlt) {
+        cj[s] = f0;
+        c1[s - 1] = f1;
+      }
+      cs += len - s;
+    }
+    cj = c1 + (len - 1);
+  }
+  if (j < m && !take_pivot(d0, j)) return j;  // the last column alone (m odd)
+  if (!ldlt) {
+    double* c = W;
+    for (std::int32_t i = 0; i < m; ++i) {
+      const double l = std::sqrt(c[0]);
+      const double inv = l * Winv[i];  // sqrt(d) / d
+      c[0] = l;
+      Winv[i] = inv;
+      scale(c + 1, inv, m - i - 1);
+      c += m - i;
+    }
   }
   return -1;
 }
 
+// Both substitutions keep the two rows next to the one being solved in
+// registers, so that the serial chain from one unknown to the next is a
+// product, a subtraction and the scaling, never a store and a reload:
+//  * forward, by columns: y_j final, then row j + 1 (register a) and row
+//    j + 2 (register b, read from memory, where the columns up to j - 1
+//    have already been subtracted) less L[., j] y_j, rows j + 3 and below
+//    in memory, by pairs;
+//  * backward, by dot products: row j less its rows j + 3 and below (pairs,
+//    all solved at least three steps before), then less row j + 2 and, last,
+//    row j + 1, the two most recent unknowns, kept in registers.
+// Each entry gets its products in the order of the unrolled solve's
+// arithmetic count (one product and one subtraction each).
 template <class Size>
 inline void schur_dense_solve_loops(const double* W, const double* Winv, Size m, const std::int32_t* order,
-                                   bool ldlt, double* work, double* zm) {
+                                    bool ldlt, double* __restrict work, double* zm) {
   for (std::int32_t j = 0; j < m; ++j) work[j] = zm[order[j]];
-  // Forward, by columns: y_j final, then subtracted from the rows below.
+  const double* cj = W;
+  double a = m > 0 ? work[0] : 0.0, b = m > 1 ? work[1] : 0.0;
   for (std::int32_t j = 0; j < m; ++j) {
-    const double* col = W + dense_col(j, m);
-    if (!ldlt) work[j] *= Winv[j];
-    const double y = work[j];
-    for (std::int32_t r = 1; r < m - j; ++r) work[j + r] -= col[r] * y;
+    const std::int32_t len = m - j;
+    const double y = ldlt ? a : a * Winv[j];
+    work[j] = y;
+    if (len > 1) a = b - cj[1] * y;
+    if (len > 2) b = work[j + 2] - cj[2] * y;
+    if (len > 3) axpy_sub(work + j + 3, cj + 3, y, len - 3);
+    cj += len;
   }
-  // Backward, by columns: column j against the rows below (the products
-  // and their count as in the unrolled solve: no add to a zero), the row
-  // just solved (j + 1) last, so that only its product waits for it: the
-  // chain from one lambda to the next is one multiply and one subtraction,
-  // not a subtraction per row below.
+  double x1 = 0.0, x2 = 0.0;  // the unknowns at positions j + 1 and j + 2
   for (std::int32_t j = m - 1; j >= 0; --j) {
-    const double* col = W + dense_col(j, m);
+    const std::int32_t len = m - j;
+    cj -= len;
     double s = ldlt ? work[j] * Winv[j] : work[j];
-    for (std::int32_t r = m - j - 1; r >= 1; --r) s -= col[r] * work[j + r];
-    work[j] = ldlt ? s : s * Winv[j];
+    if (len > 3) {
+      const std::int32_t n = len - 3;  // rows j + 3 .. m - 1
+      const double* c = cj + 3;
+      const double* x = work + j + 3;
+      double t;
+      if (n >= 2) {
+        v2d acc = load2(c) * load2(x);
+        std::int32_t r = 2;
+        for (; r + 2 <= n; r += 2) acc += load2(c + r) * load2(x + r);
+        t = sum2(acc);
+        if (r < n) t += c[r] * x[r];
+      } else {
+        t = c[0] * x[0];
+      }
+      s -= t;
+    }
+    if (len > 2) s -= cj[2] * x2;
+    if (len > 1) s -= cj[1] * x1;
+    const double xj = ldlt ? s : s * Winv[j];
+    work[j] = xj;
+    x2 = x1;
+    x1 = xj;
   }
   for (std::int32_t j = 0; j < m; ++j) zm[order[j]] = work[j];
 }
 
 }  // namespace detail
 
-/// schur_dense_factor() and schur_dense_solve() for m known at compile time:
-/// the same loops and arithmetic (bitwise the same results), with every trip
-/// count a constant the compiler can unroll (docs/benchmarks.md, run 6: the
-/// HMMWV's m = 16 solve 2.01 -> 1.92 us).
+/// schur_dense_gram(), schur_dense_factor() and schur_dense_solve() for
+/// sizes known at compile time: the same loops and arithmetic (bitwise the
+/// same results), with every trip count a constant.
+template <std::int32_t K, std::int32_t M>
+inline void schur_dense_gram_fixed(const double* A, const double* B, double* W) {
+  detail::schur_dense_gram_loops(A, B, std::integral_constant<std::int32_t, K>{},
+                                 std::integral_constant<std::int32_t, M>{}, W);
+}
+
 template <std::int32_t M>
 inline std::int32_t schur_dense_factor_fixed(double* W, double* Winv, bool ldlt, double pivot_tolerance,
                                              double* pivot) {

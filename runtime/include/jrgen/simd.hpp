@@ -32,8 +32,16 @@ inline v2d operator+(v2d a, v2d b) { return set2(a.x[0] + b.x[0], a.x[1] + b.x[1
 inline v2d operator-(v2d a, v2d b) { return set2(a.x[0] - b.x[0], a.x[1] - b.x[1]); }
 inline v2d operator*(v2d a, double s) { return set2(a.x[0] * s, a.x[1] * s); }
 inline v2d operator*(double s, v2d a) { return set2(s * a.x[0], s * a.x[1]); }
+inline v2d operator*(v2d a, v2d b) { return set2(a.x[0] * b.x[0], a.x[1] * b.x[1]); }
 inline v2d& operator+=(v2d& a, v2d b) { return a = a + b; }
 inline v2d operator-(v2d a) { return set2(-a.x[0], -a.x[1]); }
+#endif
+
+/// a[0] + a[1].
+#if (defined(__GNUC__) || defined(__clang__)) && !defined(JRGEN_PORTABLE_SIMD)
+inline double sum2(v2d a) { return a[0] + a[1]; }
+#else
+inline double sum2(v2d a) { return a.x[0] + a.x[1]; }
 #endif
 
 /// p[0], p[1] (any alignment).
