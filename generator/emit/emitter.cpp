@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <string_view>
 
 #include <jrgen/runtime.hpp>
 
@@ -428,6 +429,27 @@ std::string sanitize_identifier(std::string_view name) {
   return out;
 }
 
+namespace {
+
+// "JRGEN_STEP " before each definition of a step function: the lines of
+// `code` that start (column 0) with "int step" or "void step".
+std::string mark_step_definitions(const std::string& code) {
+  std::string out;
+  std::size_t pos = 0;
+  while (pos < code.size()) {
+    std::size_t end = code.find('\n', pos);
+    if (end == std::string::npos) end = code.size();
+    const std::string_view line(code.data() + pos, end - pos);
+    if (line.rfind("int step", 0) == 0 || line.rfind("void step", 0) == 0) out += "JRGEN_STEP ";
+    out.append(line);
+    if (end < code.size()) out += '\n';
+    pos = end + 1;
+  }
+  return out;
+}
+
+}  // namespace
+
 Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Options& options) {
   if (t.nv == 0)
     throw Error(ir::SourceLocation{robot.source_file, 0}, "robot", robot.name,
@@ -692,6 +714,29 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
     solver.ops.insert(solver.ops.end(), loops.ops.begin(), loops.ops.end());
   }
   solver.ops.push_back({"4", k4.ops});
+  // Steps as separate functions: inlined into one solve, the steps of a
+  // large model make one huge function that GCC compiles worse (the
+  // HMMWV's solve_augmented: 17 300 instructions per call inlined, 14 200
+  // with the steps apart; 14% faster built position-independent, as
+  // add_jr_solver() does).  Small models keep the steps inlined, where the
+  // calls would cost more than they save (docs/benchmarks.md, run 7).
+  long long operations = 0;
+  for (const StepOps& s : solver.ops) operations += s.ops.add + s.ops.mul;
+  v["step_attribute"] = "";
+  if (operations >= kMinOpsSeparateSteps) {
+    v["step_attribute"] =
+        "// Each step below stays its own function (" + std::to_string(operations) +
+        " additions and multiplications in all:\n"
+        "// one function that large compiles to slower code).\n"
+        "#if defined(__GNUC__) || defined(__clang__)\n"
+        "#define JRGEN_STEP __attribute__((noinline))\n"
+        "#elif defined(_MSC_VER)\n"
+        "#define JRGEN_STEP __declspec(noinline)\n"
+        "#else\n"
+        "#define JRGEN_STEP\n"
+        "#endif\n\n";
+    for (const char* key : {"step1", "step2", "step3", "step4"}) v[key] = mark_step_definitions(v[key]);
+  }
   solver.source = render_template("solver.cpp.tmpl", template_text("solver.cpp.tmpl"), v);
   return solver;
 }

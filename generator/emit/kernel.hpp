@@ -59,6 +59,11 @@ inline constexpr int kMinDenseSchurRows = 8;
 // counts the compiler then knows; larger dense parts keep the loops with the
 // sizes at run time.
 inline constexpr int kMaxFixedDenseSchur = 32;
+// Solvers with at least this many additions and multiplications (all steps,
+// as --report counts them) keep each step in its own function; below, the
+// compiler may inline them into the solve (docs/benchmarks.md, run 7:
+// measured between tree_30, 992, no difference, and anymal, 1281).
+inline constexpr long long kMinOpsSeparateSteps = 1000;
 // Sums of more products than this are split into partial sums.
 inline constexpr std::size_t kMaxTermsPerStatement = 8;
 

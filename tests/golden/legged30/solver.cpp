@@ -178,6 +178,16 @@ int not_positive_definite(std::int32_t dof_lem, double pivot) {
               pivot);
 }
 
+// Each step below stays its own function (3125 additions and multiplications in all:
+// one function that large compiles to slower code).
+#if defined(__GNUC__) || defined(__clang__)
+#define JRGEN_STEP __attribute__((noinline))
+#elif defined(_MSC_VER)
+#define JRGEN_STEP __declspec(noinline)
+#else
+#define JRGEN_STEP
+#endif
+
 // Q (user order) -> z (Lemma 2 order).
 void gather_Q(const double* __restrict Q, double* __restrict z) {
   z[0] = Q[7];
@@ -250,7 +260,7 @@ void scatter_qdd(const double* __restrict z, double* __restrict qdd) {
 // Lemma 2: no fill-in; column j reads only rows of its descendants
 // and writes only rows of its ancestors. Dinv[j] = 1 / pivot j.
 // Ops: 995 add, 1210 mul, 30 div, 30 sqrt.
-int step1_factor(double* __restrict L, double* __restrict Dinv) {
+JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   // column 0: joint 'neck' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
     const double d = L[0];
@@ -671,7 +681,7 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
 // the user's dense M (column-major, user order) where the packed variant reads
 // L: only the structurally non-zero entries of eq. (18) are read, and no
 // separate copy of M into L is made.
-int step1_factor_dense(const double* __restrict M, double* __restrict L, double* __restrict Dinv) {
+JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict L, double* __restrict Dinv) {
   // column 0: joint 'neck' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
     const double d = M[217];
@@ -1091,7 +1101,7 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
 // ---- Step 2: solve L z = Q (forward substitution), Remark 2: ----
 // row j sums over the family F(j) only.
 // Ops: 215 add, 245 mul, 0 div.
-void step2_forward(const double* __restrict L, const double* __restrict Dinv, double* __restrict z) {
+JRGEN_STEP void step2_forward(const double* __restrict L, const double* __restrict Dinv, double* __restrict z) {
   // row 0: joint 'neck' (coordinate 1 of 3)
   z[0] *= Dinv[0];
   // row 1: joint 'neck' (coordinate 2 of 3)
@@ -1196,7 +1206,7 @@ void step2_forward(const double* __restrict L, const double* __restrict Dinv, do
 // ---- Step 4: solve L^T qdd = z (back substitution), Remark 2: ----
 // row j sums over the ancestors of j only.
 // Ops: 215 add, 245 mul, 0 div.
-void step4_backward(const double* __restrict L, const double* __restrict Dinv, double* __restrict z) {
+JRGEN_STEP void step4_backward(const double* __restrict L, const double* __restrict Dinv, double* __restrict z) {
   // row 29: joint 'floating_base' (coordinate 6 of 6)
   z[29] *= Dinv[29];
   // row 28: joint 'floating_base' (coordinate 5 of 6)
