@@ -749,13 +749,19 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
     // subtractions, one product f = w / d per pair of columns, one division
     // per pivot; L L^T then scales each column by 1 / sqrt(d) = sqrt(d) / d
     // (a square root and a product per pivot, a product per entry).  The
-    // solve does the arithmetic of the unrolled one, counted above.
+    // forward substitution rides along: g = u / d per pivot with rows below
+    // (m - 1), a product and a subtraction per entry, and with L L^T the
+    // scaling y = u / sqrt(d) (m).  The backward substitution is that of the
+    // unrolled solve: a product and a subtraction per entry, m scalings.
     const long long mm = m, updates = mm * (mm * mm - 1) / 6, below = mm * (mm - 1) / 2;
     k34f.ops = OpCount{};
-    k34f.ops.add = updates;
-    k34f.ops.mul = updates + below + (ldlt ? 0 : below + mm);
+    k34f.ops.add = updates + below;
+    k34f.ops.mul = updates + below + (mm - 1) + below + (ldlt ? 0 : below + 2 * mm);
     k34f.ops.div = mm;
     k34f.ops.sqrt = ldlt ? 0 : mm;
+    k34s.ops = OpCount{};
+    k34s.ops.add = below;
+    k34s.ops.mul = below + mm;
   }
   OpCount k34 = k34f.ops;
   k34 += k34s.ops;
@@ -767,20 +773,22 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
                                       : fmt::format("jr::{}(W, Winv, {}, ", kernel, m);
     };
     s += fmt::format(
-        "// ---- Step 3.4 (a): factor W = {0} in place (dense, m = {1}: the runtime's loops). ----\n"
+        "// ---- Step 3.4 (a): factor W = {0} in place (dense, m = {1}: the runtime's loops), ----\n"
+        "// with the forward substitution of z_m (into g_zw, elimination order) in the same passes.\n"
         "// Ops: {2} add, {3} mul, {4} div, {5} sqrt.\n"
         "int step34_factor(double* __restrict W, double* __restrict Winv) {{\n"
         "  double pivot = 0.0;\n"
-        "  const std::int32_t position = {10}{6}, kPivotTolerance, &pivot);\n"
+        "  const std::int32_t position = {10}kSchurOrder, {6}, kPivotTolerance, &pivot, g_zw, g_zm);\n"
         "  return position < 0 ? 0 : constraints_singular(kSchurOrder[position], pivot);\n"
         "}}\n\n"
-        "// ---- Step 3.4 (b): solve W lambda = z_m in place. ----\n"
+        "// ---- Step 3.4 (b): backward substitution, lambda into z_m. ----\n"
         "// Ops: {7} add, {8} mul, {9} div.\n"
         "void step34_solve(const double* __restrict W, const double* __restrict Winv, double* __restrict zm) {{\n"
         "  {11}kSchurOrder, {6}, g_zw, zm);\n"
         "}}",
         ldlt ? "L_W D_W L_W^T" : "L_W L_W^T", m, k34f.ops.add, k34f.ops.mul, k34f.ops.div, k34f.ops.sqrt,
-        ldlt ? "true" : "false", k34s.ops.add, k34s.ops.mul, k34s.ops.div, call("schur_dense_factor"), call("schur_dense_solve"));
+        ldlt ? "true" : "false", k34s.ops.add, k34s.ops.mul, k34s.ops.div, call("schur_dense_factor_forward"),
+        call("schur_dense_backward"));
   } else {
     s += k34f.functions(
         "step34_factor", "double* W, double* Winv", "W, Winv", true,
@@ -810,7 +818,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
                  fmt::format("\n// Elimination position of Step 3.4 -> kept row (user order).\n"
                              "constexpr std::int32_t kSchurOrder[{}] = {{ {} }};",
                              m, join_ints(sp.order));
-    out.workspace += fmt::format("\nthread_local double g_zw[{}];    // lambda in elimination order (Step 3.4)", m);
+    out.workspace += fmt::format("\nthread_local double g_zw[{}];    // forward solution, then lambda, elimination order (Step 3.4)", m);
   }
   out.step3 = s;
   out.call_args["step31_args"] = ldlt ? "g_L, g_T, g_Tr" : "g_L, g_Dinv, g_T, g_Tr";

@@ -58,7 +58,8 @@ std::string operation_report(const ir::Robot& robot, const topology::Tree& tree,
          "Step 3.4 (every row reaching a common dof, as the HMMWV's chassis) factors in\n"
          "the order of L D L^T, one product w / d per entry, and L L^T then scales each\n"
          "column by 1 / sqrt(d): one more product per entry, for a shorter serial chain\n"
-         "from one pivot to the next (docs/benchmarks.md, run 7).\n";
+         "from one pivot to the next; the forward substitution for lambda rides along\n"
+         "(one more product per pivot; docs/benchmarks.md, run 7).\n";
   if (tree.nv == 27 && tree.nc() == 16) {
     const long long alg_s[4] = {3871, 4258, 513, 43};
     const long long ours[4] = {total.add, total.mul, total.div, total.sqrt};

@@ -706,6 +706,12 @@ struct Recount {
 //   schur_dense_solve(W, Winv, m, order, ldlt, ...): forward and backward each
 //     m (m - 1) / 2 products and subtractions, and the scalings by Winv: m in
 //     each direction for L L^T, m in the backward one for L D L^T.
+//   schur_dense_factor_forward(W, Winv, m, order, ldlt, ...): the factor
+//     above, and the forward substitution in the same passes: for each pivot
+//     with rows below, g = u / d (one M), then a product and a subtraction
+//     per row below (m - 1 - j M and A); L L^T then scales each y (one M).
+//   schur_dense_backward(W, Winv, m, order, ldlt, ...): the backward half of
+//     schur_dense_solve: m (m - 1) / 2 products and subtractions, m scalings.
 //   The _fixed variants take the sizes as template arguments instead
 //   (gram_fixed<k, m>(A, B, W), factor_fixed<m>(W, Winv, ...),
 //   solve_fixed<m>(W, Winv, ...)): same loops, same counts.
@@ -742,9 +748,19 @@ bool count_dense_kernel(const std::string& raw, Recount* rc) {
     rc->add += entries * (k - 1);
     return true;
   }
-  if (const auto a = args("jr::schur_dense_factor"); !a.empty()) {
+  // The factorization, with or without the forward substitution.
+  const bool forward = !args("jr::schur_dense_factor_forward").empty();
+  if (const auto a = forward ? args("jr::schur_dense_factor_forward") : args("jr::schur_dense_factor"); !a.empty()) {
     const long long m = std::stoll(a.at(2));
-    const bool ldlt = a.at(3) == "true";
+    const bool ldlt = a.at(forward ? 4 : 3) == "true";
+    if (forward) {
+      for (long long j = 0; j < m; ++j) {
+        if (j + 1 < m) rc->mul += 1;
+        rc->mul += m - 1 - j;
+        rc->add += m - 1 - j;
+        if (!ldlt) rc->mul += 1;
+      }
+    }
     for (long long j = 0; j < m; ++j) {
       rc->div += 1;
       for (long long s = j + 1; s < m; ++s) {
@@ -756,6 +772,12 @@ bool count_dense_kernel(const std::string& raw, Recount* rc) {
         rc->mul += 1 + (m - 1 - j);
       }
     }
+    return true;
+  }
+  if (const auto a = args("jr::schur_dense_backward"); !a.empty()) {
+    const long long m = std::stoll(a.at(2));
+    rc->mul += m * (m - 1) / 2 + m;
+    rc->add += m * (m - 1) / 2;
     return true;
   }
   if (const auto a = args("jr::schur_dense_solve"); !a.empty()) {

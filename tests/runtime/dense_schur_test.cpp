@@ -113,6 +113,18 @@ TEST_P(DenseSchur, FactorMatchesEigenAndSolves) {
     Eigen::VectorXd x = b;
     jr::schur_dense_solve(W.data(), Winv.data(), m, order.data(), ldlt, work.data(), x.data());
     EXPECT_LE(relative_error(x, x_ref), 8 * m * kEps * cond) << (ldlt ? "ldlt" : "llt");
+    // The fused path of the generated code: the forward substitution rides
+    // along the factorization (its own rounding), then the backward one.
+    // The same factor, bitwise; the same solution to the same bound.
+    std::vector<double> W2 = pack(Wp), Winv2(m);
+    Eigen::VectorXd x2 = b;
+    ASSERT_EQ(jr::schur_dense_factor_forward(W2.data(), Winv2.data(), m, order.data(), ldlt, 1e-14, &pivot,
+                                             work.data(), x2.data()),
+              -1);
+    EXPECT_EQ(W2, W) << (ldlt ? "ldlt" : "llt");
+    EXPECT_EQ(Winv2, Winv) << (ldlt ? "ldlt" : "llt");
+    jr::schur_dense_backward(W2.data(), Winv2.data(), m, order.data(), ldlt, work.data(), x2.data());
+    EXPECT_LE(relative_error(x2, x_ref), 8 * m * kEps * cond) << (ldlt ? "ldlt, fused" : "llt, fused");
   }
 }
 
@@ -154,6 +166,20 @@ void expect_fixed_equals_runtime() {
     jr::schur_dense_solve(W1.data(), inv1.data(), M, order.data(), ldlt, work.data(), x1.data());
     jr::schur_dense_solve_fixed<M>(W2.data(), inv2.data(), order.data(), ldlt, work.data(), x2.data());
     expect_same(x1, x2, ldlt ? "solve, ldlt" : "solve, llt");
+    // The fused factor and forward substitution, then the backward one.
+    std::vector<double> F1 = pack(c.W), F2 = F1, y1(M), y2(M);
+    for (int i = 0; i < M; ++i) y1[i] = y2[i] = std::cos(2.0 + i);
+    ASSERT_EQ(jr::schur_dense_factor_forward(F1.data(), inv1.data(), M, order.data(), ldlt, 1e-14, &p1, work.data(),
+                                             y1.data()),
+              -1);
+    jr::schur_dense_backward(F1.data(), inv1.data(), M, order.data(), ldlt, work.data(), y1.data());
+    std::vector<double> work2(M);
+    ASSERT_EQ(jr::schur_dense_factor_forward_fixed<M>(F2.data(), inv2.data(), order.data(), ldlt, 1e-14, &p2,
+                                                      work2.data(), y2.data()),
+              -1);
+    jr::schur_dense_backward_fixed<M>(F2.data(), inv2.data(), order.data(), ldlt, work2.data(), y2.data());
+    expect_same(F1, F2, "fused factor");
+    expect_same(y1, y2, ldlt ? "fused solve, ldlt" : "fused solve, llt");
   }
 }
 

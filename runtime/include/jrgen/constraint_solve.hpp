@@ -100,6 +100,19 @@ std::int32_t schur_dense_factor(double* W, double* Winv, std::int32_t m, bool ld
 void schur_dense_solve(const double* W, const double* Winv, std::int32_t m, const std::int32_t* order, bool ldlt,
                        double* work, double* zm);
 
+/// Step 3.4 fused: the factorization of schur_dense_factor() with the
+/// forward substitution of z_m riding along (each pivot's unknown is
+/// final as soon as the pivot is, and its column updates the rows below in
+/// the same pass); work (m doubles) then holds the forward solution in
+/// elimination order, and schur_dense_backward() finishes lambda.
+std::int32_t schur_dense_factor_forward(double* W, double* Winv, std::int32_t m, const std::int32_t* order, bool ldlt,
+                                        double pivot_tolerance, double* pivot, double* work, const double* zm);
+
+/// Step 3.4, the backward substitution after schur_dense_factor_forward():
+/// lambda into zm (user row order).
+void schur_dense_backward(const double* W, const double* Winv, std::int32_t m, const std::int32_t* order, bool ldlt,
+                          double* work, double* zm);
+
 namespace detail {
 
 /// Column j of the dense packed lower triangle (rows j..m-1).
@@ -222,9 +235,14 @@ inline void schur_dense_gram_loops(const double* __restrict A, const double* __r
 // f_s are the factor's entries themselves and are stored in place of w.
 // Winv holds the original diagonal until pivot j replaces it by 1 / d_j
 // (and, L L^T, then 1 / sqrt(d_j)).
-template <class Size>
+//
+// kForward: z (elimination order) is forward-substituted in the same
+// passes: u_j = z_j is final with pivot j, and the rows below get
+// z_r -= w[r, j] * g_j, g_j = u_j / d_j (the unit factor's entry times
+// u_j); L L^T then takes y_j = u_j / sqrt(d_j) in the scaling pass.
+template <bool kForward, class Size>
 inline std::int32_t schur_dense_factor_loops(double* W, double* Winv, Size m, bool ldlt, double pivot_tolerance,
-                                             double* pivot) {
+                                             double* pivot, double* __restrict z) {
   {
     const double* diag = W;
     for (std::int32_t j = 0; j < m; ++j) {
@@ -253,9 +271,15 @@ inline std::int32_t schur_dense_factor_loops(double* W, double* Winv, Size m, bo
     const double d1 = c1[0] - cj[1] * f;
     c1[0] = d1;
     axpy_sub(c1 + 1, cj + 2, f, len - 2);
+    double g0 = 0.0;
+    if (kForward) {
+      g0 = z[j] * d0inv;
+      z[j + 1] -= cj[1] * g0;
+    }
     if (ldlt) cj[1] = f;
     if (!take_pivot(d1, j + 1)) return j + 1;
     const double d1inv = Winv[j + 1];
+    if (kForward && len > 2) axpy2_sub(z + j + 2, cj + 2, g0, c1 + 1, z[j + 1] * d1inv, len - 2);
     double* cs = c1 + (len - 1);  // column j + s from its diagonal
     for (std::int32_t s = 2; s < len; ++s) {
       const double f0 = cj[s] * d0inv, f1 = c1[s - 1] * d1inv;
@@ -282,6 +306,7 @@ inline std::int32_t schur_dense_factor_loops(double* W, double* Winv, Size m, bo
       const double inv = l * Winv[i];  // sqrt(d) / d
       c[0] = l;
       Winv[i] = inv;
+      if (kForward) z[i] *= inv;
       scale(c + 1, inv, m - i - 1);
       c += m - i;
     }
@@ -300,11 +325,10 @@ inline std::int32_t schur_dense_factor_loops(double* W, double* Winv, Size m, bo
 //    all solved at least three steps before), then less row j + 2 and, last,
 //    row j + 1, the two most recent unknowns, kept in registers.
 // Each entry gets its products in the order of the unrolled solve's
-// arithmetic count (one product and one subtraction each).
+// arithmetic count (one product and one subtraction each).  Both work in
+// place on work (elimination order).
 template <class Size>
-inline void schur_dense_solve_loops(const double* W, const double* Winv, Size m, const std::int32_t* order,
-                                    bool ldlt, double* __restrict work, double* zm) {
-  for (std::int32_t j = 0; j < m; ++j) work[j] = zm[order[j]];
+inline void schur_dense_forward_loops(const double* W, const double* Winv, Size m, bool ldlt, double* __restrict work) {
   const double* cj = W;
   double a = m > 0 ? work[0] : 0.0, b = m > 1 ? work[1] : 0.0;
   for (std::int32_t j = 0; j < m; ++j) {
@@ -316,6 +340,12 @@ inline void schur_dense_solve_loops(const double* W, const double* Winv, Size m,
     if (len > 3) axpy_sub(work + j + 3, cj + 3, y, len - 3);
     cj += len;
   }
+}
+
+template <class Size>
+inline void schur_dense_backward_loops(const double* W, const double* Winv, Size m, bool ldlt,
+                                       double* __restrict work) {
+  const double* cj = W + static_cast<std::int64_t>(m) * (m + 1) / 2;
   double x1 = 0.0, x2 = 0.0;  // the unknowns at positions j + 1 and j + 2
   for (std::int32_t j = m - 1; j >= 0; --j) {
     const std::int32_t len = m - j;
@@ -344,7 +374,6 @@ inline void schur_dense_solve_loops(const double* W, const double* Winv, Size m,
     x2 = x1;
     x1 = xj;
   }
-  for (std::int32_t j = 0; j < m; ++j) zm[order[j]] = work[j];
 }
 
 }  // namespace detail
@@ -361,14 +390,33 @@ inline void schur_dense_gram_fixed(const double* A, const double* B, double* W) 
 template <std::int32_t M>
 inline std::int32_t schur_dense_factor_fixed(double* W, double* Winv, bool ldlt, double pivot_tolerance,
                                              double* pivot) {
-  return detail::schur_dense_factor_loops(W, Winv, std::integral_constant<std::int32_t, M>{}, ldlt, pivot_tolerance,
-                                          pivot);
+  return detail::schur_dense_factor_loops<false>(W, Winv, std::integral_constant<std::int32_t, M>{}, ldlt,
+                                                 pivot_tolerance, pivot, nullptr);
 }
 
 template <std::int32_t M>
 inline void schur_dense_solve_fixed(const double* W, const double* Winv, const std::int32_t* order, bool ldlt,
                                     double* work, double* zm) {
-  detail::schur_dense_solve_loops(W, Winv, std::integral_constant<std::int32_t, M>{}, order, ldlt, work, zm);
+  for (std::int32_t j = 0; j < M; ++j) work[j] = zm[order[j]];
+  detail::schur_dense_forward_loops(W, Winv, std::integral_constant<std::int32_t, M>{}, ldlt, work);
+  detail::schur_dense_backward_loops(W, Winv, std::integral_constant<std::int32_t, M>{}, ldlt, work);
+  for (std::int32_t j = 0; j < M; ++j) zm[order[j]] = work[j];
+}
+
+template <std::int32_t M>
+inline std::int32_t schur_dense_factor_forward_fixed(double* W, double* Winv, const std::int32_t* order, bool ldlt,
+                                                     double pivot_tolerance, double* pivot, double* work,
+                                                     const double* zm) {
+  for (std::int32_t j = 0; j < M; ++j) work[j] = zm[order[j]];
+  return detail::schur_dense_factor_loops<true>(W, Winv, std::integral_constant<std::int32_t, M>{}, ldlt,
+                                                pivot_tolerance, pivot, work);
+}
+
+template <std::int32_t M>
+inline void schur_dense_backward_fixed(const double* W, const double* Winv, const std::int32_t* order, bool ldlt,
+                                       double* work, double* zm) {
+  detail::schur_dense_backward_loops(W, Winv, std::integral_constant<std::int32_t, M>{}, ldlt, work);
+  for (std::int32_t j = 0; j < M; ++j) zm[order[j]] = work[j];
 }
 
 }  // namespace jr
