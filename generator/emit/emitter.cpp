@@ -715,11 +715,12 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
   }
   solver.ops.push_back({"4", k4.ops});
   // Steps as separate functions: inlined into one solve, the steps of a
-  // large model make one huge function that GCC compiles worse (the
-  // HMMWV's solve_augmented: 17 300 instructions per call inlined, 14 200
-  // with the steps apart; 14% faster built position-independent, as
-  // add_jr_solver() does).  Small models keep the steps inlined, where the
-  // calls would cost more than they save (docs/benchmarks.md, run 7).
+  // large model make one huge function that runs slower, most of all built
+  // position-independent as add_jr_solver() does (the HMMWV 4-14% slower
+  // inlined, with about the same number of instructions executed: how GCC
+  // schedules and lays out one huge function, not more work).  Small models
+  // keep the steps inlined, where the calls would cost more than they save
+  // (docs/benchmarks.md, run 7).
   long long operations = 0;
   for (const StepOps& s : solver.ops) operations += s.ops.add + s.ops.mul;
   v["step_attribute"] = "";

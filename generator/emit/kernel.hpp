@@ -55,9 +55,9 @@ inline constexpr long long kMaxGatherTable = 1 << 20;
 inline constexpr int kMinDenseSchurRows = 8;
 // Up to this many rows the dense Steps 3.3 and 3.4 call the runtime's loops
 // with the sizes as template arguments (jr::schur_dense_gram_fixed,
-// jr::schur_dense_factor_fixed, jr::schur_dense_solve_fixed), whose trip
-// counts the compiler then knows; larger dense parts keep the loops with the
-// sizes at run time.
+// jr::schur_dense_factor_forward_fixed, jr::schur_dense_backward_fixed),
+// whose trip counts the compiler then knows; larger dense parts keep the
+// loops with the sizes at run time.
 inline constexpr int kMaxFixedDenseSchur = 32;
 // Solvers with at least this many additions and multiplications (all steps,
 // as --report counts them) keep each step in its own function; below, the

@@ -156,8 +156,6 @@ void constraint_update(const ConstraintSolveModel& cs, const double* T, const do
 
 // ---- Dense Schur kernels ----
 
-using detail::dense_col;
-
 void schur_dense_gram(const double* A, const double* B, std::int32_t k, std::int32_t m, double* W) {
   detail::schur_dense_gram_loops(A, B, k, m, W);
 }

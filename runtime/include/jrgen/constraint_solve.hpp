@@ -23,6 +23,7 @@
 #include <cmath>
 #include <cstdint>
 #include <type_traits>
+#include <utility>
 
 #include "jrgen/runtime.hpp"
 #include "jrgen/simd.hpp"
@@ -115,9 +116,6 @@ void schur_dense_backward(const double* W, const double* Winv, std::int32_t m, c
 
 namespace detail {
 
-/// Column j of the dense packed lower triangle (rows j..m-1).
-constexpr std::int32_t dense_col(std::int32_t j, std::int32_t m) { return j * m - j * (j - 1) / 2; }
-
 // The loops of the dense kernels, for sizes known at run time (std::int32_t)
 // or at compile time (std::integral_constant: the _fixed variants below,
 // which the generated code calls).  They work on pairs of rows (jr::v2d: one
@@ -176,14 +174,13 @@ inline void schur_dense_gram_loops(const double* __restrict A, const double* __r
     col[0] = wjj;
     col[1] = wj1j;
     col1[0] = wj1j1;
-    // Rows j + 2 .. m - 1 of both columns.
-    const std::int32_t n = m - j - 2;
-    std::int32_t r = 0;
-    for (; r + 2 <= n; r += 2) {
-      v2d s0 = set2(0.0, 0.0), s1 = set2(0.0, 0.0);
+    // Rows j + 2 .. m - 1 of both columns: a pair of rows (value = load2)
+    // or the odd last one (value = the double itself) starting at A + at.
+    auto rows = [&](auto value, std::int64_t at) {
+      decltype(value(at)) s0{}, s1{};
       for (std::int32_t i = 0; i < k; ++i) {
         const std::int64_t row = static_cast<std::int64_t>(i) * m;
-        const v2d a = load2(A + row + j + 2 + r);
+        const auto a = value(row + at);
         if (i == 0) {
           s0 = a * B[row + j];
           s1 = a * B[row + j + 1];
@@ -192,22 +189,17 @@ inline void schur_dense_gram_loops(const double* __restrict A, const double* __r
           s1 += a * B[row + j + 1];
         }
       }
+      return std::make_pair(s0, s1);
+    };
+    const std::int32_t n = m - j - 2;
+    std::int32_t r = 0;
+    for (; r + 2 <= n; r += 2) {
+      const auto [s0, s1] = rows([&](std::int64_t p) { return load2(A + p); }, j + 2 + r);
       store2(col + 2 + r, s0);
       store2(col1 + 1 + r, s1);
     }
     if (r < n) {
-      double s0 = 0.0, s1 = 0.0;
-      for (std::int32_t i = 0; i < k; ++i) {
-        const std::int64_t row = static_cast<std::int64_t>(i) * m;
-        const double a = A[row + j + 2 + r];
-        if (i == 0) {
-          s0 = a * B[row + j];
-          s1 = a * B[row + j + 1];
-        } else {
-          s0 += a * B[row + j];
-          s1 += a * B[row + j + 1];
-        }
-      }
+      const auto [s0, s1] = rows([&](std::int64_t p) { return A[p]; }, j + 2 + r);
       col[2 + r] = s0;
       col1[1 + r] = s1;
     }
