@@ -370,9 +370,10 @@ inline void schur_dense_backward_loops(const double* W, const double* Winv, Size
 
 }  // namespace detail
 
-/// schur_dense_gram(), schur_dense_factor() and schur_dense_solve() for
-/// sizes known at compile time: the same loops and arithmetic (bitwise the
-/// same results), with every trip count a constant.
+/// schur_dense_gram(), schur_dense_factor(), schur_dense_solve(),
+/// schur_dense_factor_forward() and schur_dense_backward() for sizes known at
+/// compile time: the same loops and arithmetic (bitwise the same results),
+/// with every trip count a constant.
 template <std::int32_t K, std::int32_t M>
 inline void schur_dense_gram_fixed(const double* A, const double* B, double* W) {
   detail::schur_dense_gram_loops(A, B, std::integral_constant<std::int32_t, K>{},
