@@ -713,8 +713,8 @@ struct Recount {
 //   schur_dense_backward(W, Winv, m, order, ldlt, ...): the backward half of
 //     schur_dense_solve: m (m - 1) / 2 products and subtractions, m scalings.
 //   The _fixed variants take the sizes as template arguments instead
-//   (gram_fixed<k, m>(A, B, W), factor_fixed<m>(W, Winv, ...),
-//   solve_fixed<m>(W, Winv, ...)): same loops, same counts.
+//   (gram_fixed<k, m>(A, B, W), and X_fixed<m>(W, Winv, ...) for the others):
+//   same loops, same counts.
 bool count_dense_kernel(const std::string& raw, Recount* rc) {
   // jr::schur_dense_gram_fixed<k, m>(A, B, W) -> jr::schur_dense_gram(A, B, k, m, W)
   static const std::regex kGramFixed(R"(jr::schur_dense_gram_fixed<(\d+), (\d+)>\(([^,]+),([^,]+),)");
