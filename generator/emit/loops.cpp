@@ -605,83 +605,102 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
 
   // ---- Step 3.4: factor T^T T (packed, fill included) and solve for lambda ----
   Kernel k34f, k34s;
-  for (int j = 0; j < m; ++j) {
-    Kernel::Unit& u = k34f.unit();
-    u.lines.push_back(fmt::format("// column {}: {}", j, row_label(t, row_at(j))));
-    u.lines.push_back("{");
-    const std::string in = "  ";
-    const std::string diag = fmt::format("W[{}]", sp.position(j, j));
-    const std::vector<int>& left = sp.row_list[j];
-    auto Wat = [&](int r, int c) { return fmt::format("W[{}]", sp.position(r, c)); };
-    auto common_left = [&](int r) {
-      std::vector<int> c;
-      std::set_intersection(left.begin(), left.end(), sp.row_list[r].begin(), sp.row_list[r].end(), std::back_inserter(c));
-      return c;
-    };
-    if (!ldlt) {
-      std::vector<Term> sq;
-      for (int i : left) sq.push_back({Wat(j, i), Wat(j, i)});
-      k34f.update(u, in, "d", diag, sq, "", "const double ", "sd");
-      u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return constraints_singular({}, d);", diag, sp.order[j]));
-      u.lines.push_back(in + diag + " = std::sqrt(d);");
-      u.lines.push_back(in + fmt::format("Winv[{}] = 1.0 / {};", j, diag));
-      u.statements += 3;
-      k34f.ops.sqrt += 1;
-      k34f.ops.div += 1;
-      for (int r : sp.pattern[j]) {
-        std::vector<Term> terms;
-        for (int i : common_left(r)) terms.push_back({Wat(j, i), Wat(r, i)});
-        k34f.update(u, in, Wat(r, j), Wat(r, j), terms, fmt::format("Winv[{}]", j));
+  if (dense_schur) {
+    // The runtime's right-looking loops factor in the order of L D L^T
+    // (jrgen/constraint_solve.hpp): m (m^2 - 1) / 6 products and
+    // subtractions, one product f = w / d per pair of columns, one division
+    // per pivot; L L^T then scales each column by 1 / sqrt(d) = sqrt(d) / d
+    // (a square root and a product per pivot, a product per entry).  The
+    // forward substitution rides along: g = u / d per pivot with rows below
+    // (m - 1), a product and a subtraction per entry, and with L L^T the
+    // scaling y = u / sqrt(d) (m).  The backward substitution is that of the
+    // unrolled solve: a product and a subtraction per entry, m scalings.
+    const long long mm = m, updates = mm * (mm * mm - 1) / 6, below = mm * (mm - 1) / 2;
+    k34f.ops.add = updates + below;
+    k34f.ops.mul = updates + below + (mm - 1) + below + (ldlt ? 0 : below + 2 * mm);
+    k34f.ops.div = mm;
+    k34f.ops.sqrt = ldlt ? 0 : mm;
+    k34s.ops.add = below;
+    k34s.ops.mul = below + mm;
+  } else {
+    for (int j = 0; j < m; ++j) {
+      Kernel::Unit& u = k34f.unit();
+      u.lines.push_back(fmt::format("// column {}: {}", j, row_label(t, row_at(j))));
+      u.lines.push_back("{");
+      const std::string in = "  ";
+      const std::string diag = fmt::format("W[{}]", sp.position(j, j));
+      const std::vector<int>& left = sp.row_list[j];
+      auto Wat = [&](int r, int c) { return fmt::format("W[{}]", sp.position(r, c)); };
+      auto common_left = [&](int r) {
+        std::vector<int> c;
+        std::set_intersection(left.begin(), left.end(), sp.row_list[r].begin(), sp.row_list[r].end(), std::back_inserter(c));
+        return c;
+      };
+      if (!ldlt) {
+        std::vector<Term> sq;
+        for (int i : left) sq.push_back({Wat(j, i), Wat(j, i)});
+        k34f.update(u, in, "d", diag, sq, "", "const double ", "sd");
+        u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return constraints_singular({}, d);", diag, sp.order[j]));
+        u.lines.push_back(in + diag + " = std::sqrt(d);");
+        u.lines.push_back(in + fmt::format("Winv[{}] = 1.0 / {};", j, diag));
+        u.statements += 3;
+        k34f.ops.sqrt += 1;
+        k34f.ops.div += 1;
+        for (int r : sp.pattern[j]) {
+          std::vector<Term> terms;
+          for (int i : common_left(r)) terms.push_back({Wat(j, i), Wat(r, i)});
+          k34f.update(u, in, Wat(r, j), Wat(r, j), terms, fmt::format("Winv[{}]", j));
+        }
+      } else {
+        std::vector<Term> dterms;
+        std::map<int, std::string> w;
+        for (int i : left) {
+          const std::string name = fmt::format("w{}", w.size());
+          u.lines.push_back(in + fmt::format("const double {} = {} * {};", name, Wat(j, i), Wat(i, i)));
+          ++u.statements;
+          k34f.ops.mul += 1;
+          w[i] = name;
+          dterms.push_back({name, Wat(j, i)});
+        }
+        k34f.update(u, in, "d", diag, dterms, "", "const double ", "sd");
+        u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return constraints_singular({}, d);", diag, sp.order[j]));
+        u.lines.push_back(in + diag + " = d;");
+        u.lines.push_back(in + fmt::format("Winv[{}] = 1.0 / d;", j));
+        u.statements += 3;
+        k34f.ops.div += 1;
+        for (int r : sp.pattern[j]) {
+          std::vector<Term> terms;
+          for (int i : common_left(r)) terms.push_back({w[i], Wat(r, i)});
+          k34f.update(u, in, Wat(r, j), Wat(r, j), terms, fmt::format("Winv[{}]", j));
+        }
       }
-    } else {
-      std::vector<Term> dterms;
-      std::map<int, std::string> w;
-      for (int i : left) {
-        const std::string name = fmt::format("w{}", w.size());
-        u.lines.push_back(in + fmt::format("const double {} = {} * {};", name, Wat(j, i), Wat(i, i)));
-        ++u.statements;
-        k34f.ops.mul += 1;
-        w[i] = name;
-        dterms.push_back({name, Wat(j, i)});
-      }
-      k34f.update(u, in, "d", diag, dterms, "", "const double ", "sd");
-      u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return constraints_singular({}, d);", diag, sp.order[j]));
-      u.lines.push_back(in + diag + " = d;");
-      u.lines.push_back(in + fmt::format("Winv[{}] = 1.0 / d;", j));
-      u.statements += 3;
-      k34f.ops.div += 1;
-      for (int r : sp.pattern[j]) {
-        std::vector<Term> terms;
-        for (int i : common_left(r)) terms.push_back({w[i], Wat(r, i)});
-        k34f.update(u, in, Wat(r, j), Wat(r, j), terms, fmt::format("Winv[{}]", j));
-      }
+      u.lines.push_back("}");
     }
-    u.lines.push_back("}");
-  }
-  for (int j = 0; j < m; ++j) {  // forward
-    std::vector<Term> terms;
-    for (int i : sp.row_list[j])
-      terms.push_back({fmt::format("W[{}]", sp.position(j, i)), fmt::format("zm[{}]", sp.order[i])});
-    if (ldlt && terms.empty()) continue;
-    Kernel::Unit& u = k34s.unit();
-    u.lines.push_back(fmt::format("// forward, row {}", j));
-    const std::string z = fmt::format("zm[{}]", sp.order[j]);
-    k34s.update(u, "", z, z, terms, ldlt ? "" : fmt::format("Winv[{}]", j));
-  }
-  for (int j = m - 1; j >= 0; --j) {  // backward
-    std::vector<Term> terms;
-    // Farthest rows first: the position solved just before enters last, so
-    // the serial chain of the back substitution is one product per row.
-    for (auto r = sp.pattern[j].rbegin(); r != sp.pattern[j].rend(); ++r)
-      terms.push_back({fmt::format("W[{}]", sp.position(*r, j)), fmt::format("zm[{}]", sp.order[*r])});
-    Kernel::Unit& u = k34s.unit();
-    u.lines.push_back(fmt::format("// backward, row {}", j));
-    const std::string z = fmt::format("zm[{}]", sp.order[j]);
-    if (ldlt) {
-      k34s.ops.mul += 1;
-      k34s.update(u, "", z, z + fmt::format(" * Winv[{}]", j), terms, "");
-    } else {
-      k34s.update(u, "", z, z, terms, fmt::format("Winv[{}]", j));
+    for (int j = 0; j < m; ++j) {  // forward
+      std::vector<Term> terms;
+      for (int i : sp.row_list[j])
+        terms.push_back({fmt::format("W[{}]", sp.position(j, i)), fmt::format("zm[{}]", sp.order[i])});
+      if (ldlt && terms.empty()) continue;
+      Kernel::Unit& u = k34s.unit();
+      u.lines.push_back(fmt::format("// forward, row {}", j));
+      const std::string z = fmt::format("zm[{}]", sp.order[j]);
+      k34s.update(u, "", z, z, terms, ldlt ? "" : fmt::format("Winv[{}]", j));
+    }
+    for (int j = m - 1; j >= 0; --j) {  // backward
+      std::vector<Term> terms;
+      // Farthest rows first: the position solved just before enters last, so
+      // the serial chain of the back substitution is one product per row.
+      for (auto r = sp.pattern[j].rbegin(); r != sp.pattern[j].rend(); ++r)
+        terms.push_back({fmt::format("W[{}]", sp.position(*r, j)), fmt::format("zm[{}]", sp.order[*r])});
+      Kernel::Unit& u = k34s.unit();
+      u.lines.push_back(fmt::format("// backward, row {}", j));
+      const std::string z = fmt::format("zm[{}]", sp.order[j]);
+      if (ldlt) {
+        k34s.ops.mul += 1;
+        k34s.update(u, "", z, z + fmt::format(" * Winv[{}]", j), terms, "");
+      } else {
+        k34s.update(u, "", z, z, terms, fmt::format("Winv[{}]", j));
+      }
     }
   }
 
@@ -743,26 +762,6 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
                   "Ops: {} add, {} mul, {} div.",
                   ldlt ? "U^T D^-1 U = V^T U" : "T^T T", m, k33.ops.add, k33.ops.mul, k33.ops.div));
   s += "\n\n";
-  if (dense_schur) {
-    // The runtime's right-looking loops factor in the order of L D L^T
-    // (jrgen/constraint_solve.hpp): m (m^2 - 1) / 6 products and
-    // subtractions, one product f = w / d per pair of columns, one division
-    // per pivot; L L^T then scales each column by 1 / sqrt(d) = sqrt(d) / d
-    // (a square root and a product per pivot, a product per entry).  The
-    // forward substitution rides along: g = u / d per pivot with rows below
-    // (m - 1), a product and a subtraction per entry, and with L L^T the
-    // scaling y = u / sqrt(d) (m).  The backward substitution is that of the
-    // unrolled solve: a product and a subtraction per entry, m scalings.
-    const long long mm = m, updates = mm * (mm * mm - 1) / 6, below = mm * (mm - 1) / 2;
-    k34f.ops = OpCount{};
-    k34f.ops.add = updates + below;
-    k34f.ops.mul = updates + below + (mm - 1) + below + (ldlt ? 0 : below + 2 * mm);
-    k34f.ops.div = mm;
-    k34f.ops.sqrt = ldlt ? 0 : mm;
-    k34s.ops = OpCount{};
-    k34s.ops.add = below;
-    k34s.ops.mul = below + mm;
-  }
   OpCount k34 = k34f.ops;
   k34 += k34s.ops;
   if (dense_schur) {
