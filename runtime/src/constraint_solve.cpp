@@ -167,22 +167,17 @@ std::int32_t schur_dense_factor(double* W, double* Winv, std::int32_t m, bool ld
 
 void schur_dense_solve(const double* W, const double* Winv, std::int32_t m, const std::int32_t* order, bool ldlt,
                        double* work, double* zm) {
-  for (std::int32_t j = 0; j < m; ++j) work[j] = zm[order[j]];
-  detail::schur_dense_forward_loops(W, Winv, m, ldlt, work);
-  detail::schur_dense_backward_loops(W, Winv, m, ldlt, work);
-  for (std::int32_t j = 0; j < m; ++j) zm[order[j]] = work[j];
+  detail::schur_dense_solve_all(W, Winv, m, order, ldlt, work, zm);
 }
 
 std::int32_t schur_dense_factor_forward(double* W, double* Winv, std::int32_t m, const std::int32_t* order, bool ldlt,
                                         double pivot_tolerance, double* pivot, double* work, const double* zm) {
-  for (std::int32_t j = 0; j < m; ++j) work[j] = zm[order[j]];
-  return detail::schur_dense_factor_loops<true>(W, Winv, m, ldlt, pivot_tolerance, pivot, work);
+  return detail::schur_dense_factor_forward_all(W, Winv, m, order, ldlt, pivot_tolerance, pivot, work, zm);
 }
 
 void schur_dense_backward(const double* W, const double* Winv, std::int32_t m, const std::int32_t* order, bool ldlt,
                           double* work, double* zm) {
-  detail::schur_dense_backward_loops(W, Winv, m, ldlt, work);
-  for (std::int32_t j = 0; j < m; ++j) zm[order[j]] = work[j];
+  detail::schur_dense_backward_all(W, Winv, m, order, ldlt, work, zm);
 }
 
 }  // namespace jr

@@ -368,6 +368,32 @@ inline void schur_dense_backward_loops(const double* W, const double* Winv, Size
   }
 }
 
+// The public kernels below and in constraint_solve.cpp: z_m (user row
+// order) gathered into work (elimination order) and lambda scattered back.
+template <class Size>
+inline void schur_dense_solve_all(const double* W, const double* Winv, Size m, const std::int32_t* order, bool ldlt,
+                                  double* work, double* zm) {
+  for (std::int32_t j = 0; j < m; ++j) work[j] = zm[order[j]];
+  schur_dense_forward_loops(W, Winv, m, ldlt, work);
+  schur_dense_backward_loops(W, Winv, m, ldlt, work);
+  for (std::int32_t j = 0; j < m; ++j) zm[order[j]] = work[j];
+}
+
+template <class Size>
+inline std::int32_t schur_dense_factor_forward_all(double* W, double* Winv, Size m, const std::int32_t* order,
+                                                   bool ldlt, double pivot_tolerance, double* pivot, double* work,
+                                                   const double* zm) {
+  for (std::int32_t j = 0; j < m; ++j) work[j] = zm[order[j]];
+  return schur_dense_factor_loops<true>(W, Winv, m, ldlt, pivot_tolerance, pivot, work);
+}
+
+template <class Size>
+inline void schur_dense_backward_all(const double* W, const double* Winv, Size m, const std::int32_t* order, bool ldlt,
+                                     double* work, double* zm) {
+  schur_dense_backward_loops(W, Winv, m, ldlt, work);
+  for (std::int32_t j = 0; j < m; ++j) zm[order[j]] = work[j];
+}
+
 }  // namespace detail
 
 /// schur_dense_gram(), schur_dense_factor(), schur_dense_solve(),
@@ -390,26 +416,21 @@ inline std::int32_t schur_dense_factor_fixed(double* W, double* Winv, bool ldlt,
 template <std::int32_t M>
 inline void schur_dense_solve_fixed(const double* W, const double* Winv, const std::int32_t* order, bool ldlt,
                                     double* work, double* zm) {
-  for (std::int32_t j = 0; j < M; ++j) work[j] = zm[order[j]];
-  detail::schur_dense_forward_loops(W, Winv, std::integral_constant<std::int32_t, M>{}, ldlt, work);
-  detail::schur_dense_backward_loops(W, Winv, std::integral_constant<std::int32_t, M>{}, ldlt, work);
-  for (std::int32_t j = 0; j < M; ++j) zm[order[j]] = work[j];
+  detail::schur_dense_solve_all(W, Winv, std::integral_constant<std::int32_t, M>{}, order, ldlt, work, zm);
 }
 
 template <std::int32_t M>
 inline std::int32_t schur_dense_factor_forward_fixed(double* W, double* Winv, const std::int32_t* order, bool ldlt,
                                                      double pivot_tolerance, double* pivot, double* work,
                                                      const double* zm) {
-  for (std::int32_t j = 0; j < M; ++j) work[j] = zm[order[j]];
-  return detail::schur_dense_factor_loops<true>(W, Winv, std::integral_constant<std::int32_t, M>{}, ldlt,
-                                                pivot_tolerance, pivot, work);
+  return detail::schur_dense_factor_forward_all(W, Winv, std::integral_constant<std::int32_t, M>{}, order, ldlt,
+                                                pivot_tolerance, pivot, work, zm);
 }
 
 template <std::int32_t M>
 inline void schur_dense_backward_fixed(const double* W, const double* Winv, const std::int32_t* order, bool ldlt,
                                        double* work, double* zm) {
-  detail::schur_dense_backward_loops(W, Winv, std::integral_constant<std::int32_t, M>{}, ldlt, work);
-  for (std::int32_t j = 0; j < M; ++j) zm[order[j]] = work[j];
+  detail::schur_dense_backward_all(W, Winv, std::integral_constant<std::int32_t, M>{}, order, ldlt, work, zm);
 }
 
 }  // namespace jr
