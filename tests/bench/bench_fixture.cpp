@@ -120,4 +120,14 @@ Problem make_problem(const SolverApi& api, const char* model_name) {
   return p;
 }
 
+std::vector<double> zero_configuration(int nq, int njoints, const int* joint_q_index) {
+  std::vector<double> q(nq, 0.0);
+  for (int j = 0; j < njoints; ++j) {
+    const int next = j + 1 < njoints ? joint_q_index[j + 1] : nq;
+    const int nqj = next - joint_q_index[j];
+    if (nqj == 4 || nqj == 7) q[next - 4] = 1.0;
+  }
+  return q;
+}
+
 }  // namespace jrgen::bench

@@ -59,4 +59,9 @@ Problem make_problem(const SolverApi& api, const char* model_name);
 /// ||a - b|| / ||b||.
 double relative_difference(const Eigen::VectorXd& a, const Eigen::VectorXd& b);
 
+/// The zero configuration of a generated model: q = 0 but identity
+/// quaternions (a joint of 4 or 7 coordinates ends with its quaternion,
+/// w first: q[next - 4] = 1), from the generated joint_q_index.
+std::vector<double> zero_configuration(int nq, int njoints, const int* joint_q_index);
+
 }  // namespace jrgen::bench

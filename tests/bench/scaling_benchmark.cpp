@@ -21,6 +21,8 @@
 #include <string>
 #include <vector>
 
+#include "bench_fixture.hpp"
+
 #include "scaling_solvers.hpp"  // written by CMake: JRGEN_SCALING_SOLVERS(X)
 
 namespace {
@@ -48,14 +50,8 @@ States make_states(const Solver& s) {
     if (s.nc > 0) {
       // Closed loops (the trains): the assembled zero configuration, at
       // rest, as bench_train_<k>; a random q would not close the hitches.
-      // Identity quaternions: a joint of 4 or 7 coordinates ends with one.
-      std::fill(q.begin(), q.end(), 0.0);
+      q = jrgen::bench::zero_configuration(s.nq, s.njoints, s.joint_q_index);
       std::fill(v.begin(), v.end(), 0.0);
-      for (int j = 0; j < s.njoints; ++j) {
-        const int next = j + 1 < s.njoints ? s.joint_q_index[j + 1] : s.nq;
-        const int nqj = next - s.joint_q_index[j];
-        if (nqj == 4 || nqj == 7) q[next - 4] = 1.0;
-      }
     }
     st.q.push_back(std::move(q));
     st.v.push_back(std::move(v));

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <vector>
 
+#include "bench_fixture.hpp"
 #include JRGEN_TRAIN_HEADER
 
 namespace train = JRGEN_TRAIN_NS;
@@ -19,22 +20,9 @@ namespace {
 
 constexpr int kVehicles = JRGEN_TRAIN_VEHICLES;
 
-std::vector<double> zero_configuration() {
-  // Identity quaternions of the floating joints and of the ball joints: the
-  // generated API names every joint; the user layout of q is documented per
-  // joint (joint_q_index), and a joint with 4 or 7 coordinates starts its
-  // quaternion at q[idx + nq_joint - 4].
-  std::vector<double> q(train::nq, 0.0);
-  for (int j = 0; j < train::njoints; ++j) {
-    const int first = train::joint_q_index[j];
-    const int next = j + 1 < train::njoints ? train::joint_q_index[j + 1] : train::nq;
-    if (next - first == 4 || next - first == 7) q[next - 4] = 1.0;
-  }
-  return q;
-}
-
 void train_forward_dynamics(benchmark::State& state) {
-  const std::vector<double> q = zero_configuration(), v(train::nv, 0.0);
+  const std::vector<double> q = jrgen::bench::zero_configuration(train::nq, train::njoints, train::joint_q_index),
+                            v(train::nv, 0.0);
   std::vector<double> tau(train::nv), qdd(train::nv), lambda(train::nc);
   for (int i = 0; i < train::nv; ++i) tau[i] = std::sin(1.0 + i);
   for (auto _ : state) {
@@ -53,7 +41,8 @@ void train_solve_augmented(benchmark::State& state) {
     state.SkipWithError("dense inputs too large (nv^2 doubles)");
     return;
   }
-  const std::vector<double> q = zero_configuration(), v(train::nv, 0.0);
+  const std::vector<double> q = jrgen::bench::zero_configuration(train::nq, train::njoints, train::joint_q_index),
+                            v(train::nv, 0.0);
   std::vector<double> M(static_cast<std::size_t>(train::nv) * train::nv), h(train::nv), Q(train::nv);
   std::vector<double> Phiq(static_cast<std::size_t>(train::nc) * train::nv), gamma(train::nc);
   std::vector<double> qdd(train::nv), lambda(train::nc);

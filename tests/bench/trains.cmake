@@ -22,7 +22,7 @@ foreach(k ${JRGEN_TRAIN_SIZES})
                 OPTIONS --report "${JRGEN_TRAIN_DIR}/train_${k}.md")
   add_dependencies(bench_gen_train_${k} write_train_${k})
   add_executable(bench_train_${k} train_benchmark.cpp)
-  target_link_libraries(bench_train_${k} PRIVATE bench_gen_train_${k} benchmark::benchmark Eigen3::Eigen)
+  target_link_libraries(bench_train_${k} PRIVATE bench_gen_train_${k} jrgen_bench_fixture benchmark::benchmark Eigen3::Eigen)
   target_compile_definitions(bench_train_${k} PRIVATE JRGEN_TRAIN_HEADER="bench_gen_train_${k}.hpp"
                              JRGEN_TRAIN_NS=bench_gen_train_${k} JRGEN_TRAIN_VEHICLES=${k})
   add_dependencies(jrgen_benchmarks bench_train_${k})
