@@ -488,6 +488,9 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
     if (fused) k1_dense = step1(t, desc, options.method, "M");
     k2 = step2(t, desc, options.method);
     k4 = step4(t, options.method);
+    // Fences in Step 1 only: Steps 2 and 4 are short chains of dependent
+    // rows, slower with each value read back (docs/benchmarks.md, run 8).
+    k1.fence_every = k1_dense.fence_every = kFenceProducts;
   } else {
     // The runtime's column loop (factor_packed, and the columns of the
     // parallel shape), the same for both methods: one reciprocal pivot, a
@@ -720,7 +723,8 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
   // inlined, with about the same number of instructions executed: how GCC
   // schedules and lays out one huge function, not more work).  Small models
   // keep the steps inlined, where the calls would cost more than they save
-  // (docs/benchmarks.md, run 7).
+  // (docs/benchmarks.md, run 7).  The same solvers keep the fences that
+  // Kernel::functions() wrote (kFenceProducts); the others lose them.
   long long operations = 0;
   for (const StepOps& s : solver.ops) operations += s.ops.add + s.ops.mul;
   v["step_attribute"] = "";
@@ -728,7 +732,8 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
     v["step_attribute"] =
         "// Each step below stays its own function (" + std::to_string(operations) +
         " additions and multiplications in all:\n"
-        "// one function that large compiles to slower code).\n"
+        "// one function that large compiles to slower code), and the long steps\n"
+        "// pass values from block to block through memory (jr::compiler_fence).\n"
         "#if defined(__GNUC__) || defined(__clang__)\n"
         "#define JRGEN_STEP __attribute__((noinline))\n"
         "#elif defined(_MSC_VER)\n"
@@ -737,6 +742,9 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
         "#define JRGEN_STEP\n"
         "#endif\n\n";
     for (const char* key : {"step1", "step2", "step3", "step4"}) v[key] = mark_step_definitions(v[key]);
+  } else {
+    // Small solvers keep their values in registers: no fences.
+    for (const char* key : {"step1", "step2", "step3", "step4"}) v[key] = strip_fences(v[key]);
   }
   solver.source = render_template("solver.cpp.tmpl", template_text("solver.cpp.tmpl"), v);
   return solver;

@@ -152,8 +152,17 @@ std::string Kernel::functions(const std::string& name, const std::string& params
         for (const std::string& l : u->lines) used = used || l.find(n + "[") != std::string::npos;
       if (!used) w.line("(void)" + n + ";");
     }
-    for (const Unit* u : part)
-      for (const std::string& l : u->lines) w.line(l);
+    std::size_t since_fence = 0;  // products written since the last fence
+    for (const Unit* u : part) {
+      if (fence_every > 0 && since_fence >= fence_every) {
+        w.line(kFenceStatement);
+        since_fence = 0;
+      }
+      for (const std::string& l : u->lines) {
+        w.line(l);
+        for (std::size_t at = l.find(" * "); at != std::string::npos; at = l.find(" * ", at + 3)) ++since_fence;
+      }
+    }
   };
   for (const std::string& d : split_lines(doc)) w.comment(d);
   if (parts.size() == 1) {
@@ -176,6 +185,18 @@ std::string Kernel::functions(const std::string& name, const std::string& params
   }
   std::string out = w.take();
   if (!out.empty() && out.back() == '\n') out.pop_back();
+  return out;
+}
+
+std::string strip_fences(const std::string& code) {
+  std::string out;
+  for (const std::string& line : split_lines(code)) {
+    const std::size_t first = line.find_first_not_of(' ');
+    if (first != std::string::npos && line.compare(first, std::string::npos, kFenceStatement) == 0) continue;
+    out += line;
+    out += '\n';
+  }
+  if (!out.empty()) out.pop_back();  // split_lines gives one line more than newlines
   return out;
 }
 

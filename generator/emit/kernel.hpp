@@ -66,6 +66,18 @@ inline constexpr int kMaxFixedDenseSchur = 32;
 inline constexpr long long kMinOpsSeparateSteps = 1000;
 // Sums of more products than this are split into partial sums.
 inline constexpr std::size_t kMaxTermsPerStatement = 8;
+// Kernels with fences (Steps 1 and 3.1-3.3, 3.5) get a jr::compiler_fence()
+// between two units once the units since the last fence have written at
+// least this many products (each " * " of their statements).  The steps of
+// solvers below kMinOpsSeparateSteps get none.  Chosen by measurement
+// (docs/benchmarks.md, run 8; each shape built at six code placements):
+// a fence between every two units made the HMMWV 6% and talos 9% faster
+// but tree_d4_30 5% slower, whose short columns gain from the values kept
+// in registers; after every 64 products the HMMWV is 5% faster, its L D L^T
+// variant 13%, legged30, chain_30 and talos 9-10%, the Stewart platform 5%,
+// tree_d4_30 and tree_100 unchanged; after every 128 products the HMMWV
+// kept most of its spills (0.5%).
+inline constexpr std::size_t kFenceProducts = 64;
 
 /// A product a * b of two named scalars.
 struct Term {
@@ -79,6 +91,10 @@ struct Kernel {
   };
   std::vector<Unit> units;
   OpCount ops;
+  /// Non-zero: functions() writes "jr::compiler_fence();" before a unit once
+  /// the units since the last fence (or the start of the function) hold at
+  /// least this many products (kFenceProducts).
+  std::size_t fence_every = 0;
 
   Unit& unit() { return units.emplace_back(); }
 
@@ -121,5 +137,10 @@ struct Kernel {
 };
 
 std::vector<std::string> split_lines(const std::string& text);
+
+/// The statement Kernel::functions() writes as a fence, and `code` without
+/// the lines that hold only it (solvers too small to gain from them).
+inline constexpr const char* kFenceStatement = "jr::compiler_fence();";
+std::string strip_fences(const std::string& code);
 
 }  // namespace jrgen::emit

@@ -470,6 +470,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
 
   // ---- Step 3.1: L T = Phiq^T, only the rows of Lemma 3 ----
   Kernel k31;
+  k31.fence_every = kFenceProducts;
   {
     std::vector<std::vector<std::vector<int>>> cdesc(t.cuts.size());
     for (std::size_t c = 0; c < t.cuts.size(); ++c) cdesc[c] = cut_descendants(t, t.cuts[c]);
@@ -525,6 +526,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
 
   // ---- Step 3.2: z_m = T^T z_n - gamma (LDLT: V = D^-1 U, z_m = V^T y - gamma) ----
   Kernel k32;
+  k32.fence_every = kFenceProducts;
   if (ldlt) {
     for (int i = 0; i < t.nv; ++i) {
       if (td.rows[i].empty()) continue;
@@ -550,6 +552,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
 
   // ---- Step 3.3: T^T T, only entries whose rows share a dof ----
   Kernel k33;
+  k33.fence_every = kFenceProducts;
   // Positions of the elimination order (Step 3.4) -> kept rows (user order).
   auto row_at = [&](int position) -> const Row& { return rows[sp.order[position]]; };
   if (dense_schur) {
@@ -706,6 +709,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
 
   // ---- Step 3.5: y_n = T lambda, subtracted from z_n in place ----
   Kernel k35;
+  k35.fence_every = kFenceProducts;
   {
     for (int i = 0; i < t.nv; ++i) {
       if (td.rows[i].empty()) continue;

@@ -22,6 +22,7 @@
 #include <cstdlib>
 #include <ctime>
 #include <functional>
+#include <map>
 #include <ostream>
 #include <regex>
 #include <string>
@@ -453,6 +454,57 @@ TEST(CliOutput, ZeroGravityRemovesGravityCode) {
   EXPECT_TRUE(contains(with, "9.81"));
   EXPECT_FALSE(contains(without, "9.81"));
   EXPECT_NE(with, without);
+}
+
+// Large solvers (generator/emit/kernel.hpp: kMinOpsSeparateSteps) pass values
+// between the blocks of Steps 1, 3.1-3.3 and 3.5 through memory: a
+// jr::compiler_fence() once at least kFenceProducts = 64 products (" * ") have
+// been written since the function's start or the last fence.  Steps 2 and 4,
+// and every step of a small solver, have none.
+TEST(CliOutput, FencesOnlyInTheLongStepsOfLargeSolvers) {
+  ScratchDir scratch("jrgen_cli");
+  fs::create_directories(scratch / "a");
+  fs::create_directories(scratch / "h");
+  ASSERT_EQ(run_jrgen({(kModelsDir / "arm7.urdf").string(), "-o", "a/solver.cpp"}, scratch.path()).status, 0);
+  ASSERT_EQ(run_jrgen({(kModelsDir / "hmmwv14.urdf").string(), "--cuts", (kModelsDir / "hmmwv14.cuts.xml").string(),
+                       "-o", "h/solver.cpp"},
+                      scratch.path())
+                .status,
+            0);
+  EXPECT_FALSE(contains(slurp(scratch / "a" / "solver.cpp"), "compiler_fence"));
+
+  const std::string large = slurp(scratch / "h" / "solver.cpp");
+  const std::vector<std::string> fenced = {"step1_factor(",  "step1_factor_dense(", "step31_solve_T(",
+                                           "step32_rhs(",    "step33_TtT(",         "step35_update("};
+  std::map<std::string, int> fences;  // function -> fences in it
+  std::string function;               // the step being read, "" outside
+  std::size_t products = 0;           // " * " since its start or the last fence
+  std::size_t pos = 0;
+  while (pos < large.size()) {
+    std::size_t end = large.find('\n', pos);
+    if (end == std::string::npos) end = large.size();
+    const std::string line = large.substr(pos, end - pos);
+    pos = end + 1;
+    if (line.rfind("JRGEN_STEP ", 0) == 0) {
+      function = line.substr(line.find(' ', std::string("JRGEN_STEP ").size()) + 1);
+      function = function.substr(0, function.find('(') + 1);
+      products = 0;
+      continue;
+    }
+    if (line == "}") function.clear();
+    if (line.find("jr::compiler_fence();") != std::string::npos) {
+      EXPECT_NE(std::find(fenced.begin(), fenced.end(), function), fenced.end()) << "fence in '" << function << "'";
+      EXPECT_GE(products, 64u) << "in " << function;
+      ++fences[function];
+      products = 0;
+      continue;
+    }
+    for (std::size_t at = line.find(" * "); at != std::string::npos; at = line.find(" * ", at + 3)) ++products;
+  }
+  for (const char* f : {"step1_factor(", "step1_factor_dense(", "step31_solve_T(", "step32_rhs(", "step35_update("})
+    EXPECT_GT(fences[f], 0) << f;
+  EXPECT_EQ(fences["step2_forward("], 0);
+  EXPECT_EQ(fences["step4_backward("], 0);
 }
 
 // ===========================================================================

@@ -13,6 +13,7 @@
 // JRGEN_PORTABLE_SIMD selects the plain-C++ fallback on any compiler.
 #pragma once
 
+#include <atomic>
 #include <cstring>
 
 namespace jr {
@@ -53,5 +54,16 @@ inline v2d load2(const double* p) {
 
 /// p[0] = v[0], p[1] = v[1] (any alignment).
 inline void store2(double* p, v2d v) { std::memcpy(p, &v, sizeof v); }
+
+/// A compiler-only barrier (no instruction is emitted): values computed
+/// before it reach the statements after it through memory, not registers.
+/// The generator writes one between blocks of the long straight-line steps
+/// of large models (every kFenceProducts products).  Without it GCC carries
+/// hundreds of values from one block to the next in registers and spills
+/// most of them to the stack: on the HMMWV a third of Step 1's and Step
+/// 3.1's instructions were stack traffic, and the run time swung by up to
+/// 20% with the code's placement.  Reading the stored entries back costs a
+/// store-to-load forwarding instead (docs/benchmarks.md, run 8).
+inline void compiler_fence() { std::atomic_signal_fence(std::memory_order_seq_cst); }
 
 }  // namespace jr

@@ -170,7 +170,8 @@ int not_positive_definite(std::int32_t dof_lem, double pivot) {
 }
 
 // Each step below stays its own function (2199 additions and multiplications in all:
-// one function that large compiles to slower code).
+// one function that large compiles to slower code), and the long steps
+// pass values from block to block through memory (jr::compiler_fence).
 #if defined(__GNUC__) || defined(__clang__)
 #define JRGEN_STEP __attribute__((noinline))
 #elif defined(_MSC_VER)
@@ -324,6 +325,7 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
     jr::store2(L + 58, (jr::load2(L + 58) - (L[36] * jr::load2(L + 41) + L[45] * jr::load2(L + 50))) * Dinv[6]);
     L[60] = (L[60] - (L[36] * L[43] + L[45] * L[52])) * Dinv[6];
   }
+  jr::compiler_fence();
   // column 7: joint 'lf_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
   {
     const double d = L[61] - (L[37] * L[37] + L[46] * L[46] + L[54] * L[54]);
@@ -390,6 +392,7 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
     jr::store2(L + 109, jr::load2(L + 109) * Dinv[12]);
     L[111] *= Dinv[12];
   }
+  jr::compiler_fence();
   // column 13: joint 'lr_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
   {
     const double d = L[112] - L[103] * L[103];
@@ -500,6 +503,7 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
       L[176] = (L[176] - s) * Dinv[21];
     }
   }
+  jr::compiler_fence();
   // column 22: joint 'chassis_floating' (coordinate 2 of 6); 22 descendant(s), 4 ancestor row(s)
   {
     double sd = L[5] * L[5] + L[14] * L[14] + L[22] * L[22] + L[29] * L[29] + L[39] * L[39] + L[48] * L[48] + L[56] * L[56] + L[63] * L[63];
@@ -522,6 +526,7 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
       jr::store2(L + 180, (jr::load2(L + 180) - s) * Dinv[22]);
     }
   }
+  jr::compiler_fence();
   // column 23: joint 'chassis_floating' (coordinate 3 of 6); 23 descendant(s), 3 ancestor row(s)
   {
     double sd = L[6] * L[6] + L[15] * L[15] + L[23] * L[23] + L[30] * L[30] + L[40] * L[40] + L[49] * L[49] + L[57] * L[57] + L[64] * L[64];
@@ -544,6 +549,7 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
       L[185] = (L[185] - s) * Dinv[23];
     }
   }
+  jr::compiler_fence();
   // column 24: joint 'chassis_floating' (coordinate 4 of 6); 24 descendant(s), 2 ancestor row(s)
   {
     double sd = L[7] * L[7] + L[16] * L[16] + L[24] * L[24] + L[31] * L[31] + L[41] * L[41] + L[50] * L[50] + L[58] * L[58] + L[65] * L[65];
@@ -578,6 +584,7 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
       L[190] = (L[190] - s) * Dinv[25];
     }
   }
+  jr::compiler_fence();
   // column 26: joint 'chassis_floating' (coordinate 6 of 6); 26 descendant(s), 0 ancestor row(s)
   {
     double sd = L[9] * L[9] + L[18] * L[18] + L[26] * L[26] + L[33] * L[33] + L[43] * L[43] + L[52] * L[52] + L[60] * L[60] + L[67] * L[67];
@@ -675,6 +682,7 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
     jr::store2(L + 58, (jr::set2(M[354], M[355]) - (L[36] * jr::load2(L + 41) + L[45] * jr::load2(L + 50))) * Dinv[6]);
     L[60] = (M[356] - (L[36] * L[43] + L[45] * L[52])) * Dinv[6];
   }
+  jr::compiler_fence();
   // column 7: joint 'lf_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
   {
     const double d = M[280] - (L[37] * L[37] + L[46] * L[46] + L[54] * L[54]);
@@ -741,6 +749,7 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
     jr::store2(L + 109, jr::set2(M[516], M[517]) * Dinv[12]);
     L[111] = M[518] * Dinv[12];
   }
+  jr::compiler_fence();
   // column 13: joint 'lr_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
   {
     const double d = M[560] - L[103] * L[103];
@@ -851,6 +860,7 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
       L[176] = (M[5] - s) * Dinv[21];
     }
   }
+  jr::compiler_fence();
   // column 22: joint 'chassis_floating' (coordinate 2 of 6); 22 descendant(s), 4 ancestor row(s)
   {
     double sd = L[5] * L[5] + L[14] * L[14] + L[22] * L[22] + L[29] * L[29] + L[39] * L[39] + L[48] * L[48] + L[56] * L[56] + L[63] * L[63];
@@ -873,6 +883,7 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
       jr::store2(L + 180, (jr::set2(M[31], M[32]) - s) * Dinv[22]);
     }
   }
+  jr::compiler_fence();
   // column 23: joint 'chassis_floating' (coordinate 3 of 6); 23 descendant(s), 3 ancestor row(s)
   {
     double sd = L[6] * L[6] + L[15] * L[15] + L[23] * L[23] + L[30] * L[30] + L[40] * L[40] + L[49] * L[49] + L[57] * L[57] + L[64] * L[64];
@@ -895,6 +906,7 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
       L[185] = (M[59] - s) * Dinv[23];
     }
   }
+  jr::compiler_fence();
   // column 24: joint 'chassis_floating' (coordinate 4 of 6); 24 descendant(s), 2 ancestor row(s)
   {
     double sd = L[7] * L[7] + L[16] * L[16] + L[24] * L[24] + L[31] * L[31] + L[41] * L[41] + L[50] * L[50] + L[58] * L[58] + L[65] * L[65];
@@ -929,6 +941,7 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
       L[190] = (M[113] - s) * Dinv[25];
     }
   }
+  jr::compiler_fence();
   // column 26: joint 'chassis_floating' (coordinate 6 of 6); 26 descendant(s), 0 ancestor row(s)
   {
     double sd = L[9] * L[9] + L[18] * L[18] + L[26] * L[26] + L[33] * L[33] + L[43] * L[43] + L[52] * L[52] + L[60] * L[60] + L[67] * L[67];

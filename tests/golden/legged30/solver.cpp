@@ -179,7 +179,8 @@ int not_positive_definite(std::int32_t dof_lem, double pivot) {
 }
 
 // Each step below stays its own function (3125 additions and multiplications in all:
-// one function that large compiles to slower code).
+// one function that large compiles to slower code), and the long steps
+// pass values from block to block through memory (jr::compiler_fence).
 #if defined(__GNUC__) || defined(__clang__)
 #define JRGEN_STEP __attribute__((noinline))
 #elif defined(_MSC_VER)
@@ -341,6 +342,7 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
     jr::store2(L + 62, (jr::load2(L + 62) - (L[30] * jr::load2(L + 35) + L[40] * jr::load2(L + 45) + L[49] * jr::load2(L + 54))) * Dinv[6]);
     L[64] = (L[64] - (L[30] * L[37] + L[40] * L[47] + L[49] * L[56])) * Dinv[6];
   }
+  jr::compiler_fence();
   // column 7: joint 'right_elbow'; 0 descendant(s), 10 ancestor row(s)
   {
     const double d = L[65];
@@ -411,6 +413,7 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
       jr::store2(L + 108, (jr::load2(L + 108) - s) * Dinv[11]);
     }
   }
+  jr::compiler_fence();
   // column 12: joint 'left_ankle_roll'; 0 descendant(s), 11 ancestor row(s)
   {
     const double d = L[110];
@@ -470,6 +473,7 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
     jr::store2(L + 157, (jr::load2(L + 157) - (L[114] * jr::load2(L + 119) + L[125] * jr::load2(L + 130) + L[135] * jr::load2(L + 140) + L[144] * jr::load2(L + 149))) * Dinv[16]);
     L[159] = (L[159] - (L[114] * L[121] + L[125] * L[132] + L[135] * L[142] + L[144] * L[151])) * Dinv[16];
   }
+  jr::compiler_fence();
   // column 17: joint 'left_hip' (coordinate 3 of 3); 5 descendant(s), 6 ancestor row(s)
   {
     const double d = L[160] - (L[115] * L[115] + L[126] * L[126] + L[136] * L[136] + L[145] * L[145] + L[153] * L[153]);
@@ -528,6 +532,7 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
     jr::store2(L + 205, (jr::load2(L + 205) - (L[170] * jr::load2(L + 175) + L[181] * jr::load2(L + 186) + L[191] * jr::load2(L + 196))) * Dinv[21]);
     jr::store2(L + 207, (jr::load2(L + 207) - (L[170] * jr::load2(L + 177) + L[181] * jr::load2(L + 188) + L[191] * jr::load2(L + 198))) * Dinv[21]);
   }
+  jr::compiler_fence();
   // column 22: joint 'right_hip' (coordinate 2 of 3); 4 descendant(s), 7 ancestor row(s)
   {
     const double d = L[209] - (L[171] * L[171] + L[182] * L[182] + L[192] * L[192] + L[201] * L[201]);
@@ -577,6 +582,7 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
       L[229] = (L[229] - s) * Dinv[24];
     }
   }
+  jr::compiler_fence();
   // column 25: joint 'floating_base' (coordinate 2 of 6); 25 descendant(s), 4 ancestor row(s)
   {
     double sd = L[5] * L[5] + L[14] * L[14] + L[22] * L[22] + L[33] * L[33] + L[43] * L[43] + L[52] * L[52] + L[60] * L[60] + L[71] * L[71];
@@ -602,6 +608,7 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
       jr::store2(L + 233, (jr::load2(L + 233) - s) * Dinv[25]);
     }
   }
+  jr::compiler_fence();
   // column 26: joint 'floating_base' (coordinate 3 of 6); 26 descendant(s), 3 ancestor row(s)
   {
     double sd = L[6] * L[6] + L[15] * L[15] + L[23] * L[23] + L[34] * L[34] + L[44] * L[44] + L[53] * L[53] + L[61] * L[61] + L[72] * L[72];
@@ -627,6 +634,7 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
       L[238] = (L[238] - s) * Dinv[26];
     }
   }
+  jr::compiler_fence();
   // column 27: joint 'floating_base' (coordinate 4 of 6); 27 descendant(s), 2 ancestor row(s)
   {
     double sd = L[7] * L[7] + L[16] * L[16] + L[24] * L[24] + L[35] * L[35] + L[45] * L[45] + L[54] * L[54] + L[62] * L[62] + L[73] * L[73];
@@ -663,6 +671,7 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
       L[243] = (L[243] - s) * Dinv[28];
     }
   }
+  jr::compiler_fence();
   // column 29: joint 'floating_base' (coordinate 6 of 6); 29 descendant(s), 0 ancestor row(s)
   {
     double sd = L[9] * L[9] + L[18] * L[18] + L[26] * L[26] + L[37] * L[37] + L[47] * L[47] + L[56] * L[56] + L[64] * L[64] + L[75] * L[75];
@@ -751,6 +760,7 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
     jr::store2(L + 53, (jr::set2(M[332], M[333]) - (L[29] * jr::load2(L + 34) + L[39] * jr::load2(L + 44))) * Dinv[5]);
     jr::store2(L + 55, (jr::set2(M[334], M[335]) - (L[29] * jr::load2(L + 36) + L[39] * jr::load2(L + 46))) * Dinv[5]);
   }
+  jr::compiler_fence();
   // column 6: joint 'left_shoulder' (coordinate 3 of 3); 3 descendant(s), 7 ancestor row(s)
   {
     const double d = M[372] - (L[30] * L[30] + L[40] * L[40] + L[49] * L[49]);
@@ -808,6 +818,7 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
     jr::store2(L + 100, (jr::set2(M[483], M[484]) - (L[68] * jr::load2(L + 73) + L[78] * jr::load2(L + 83) + L[87] * jr::load2(L + 92))) * Dinv[10]);
     L[102] = (M[485] - (L[68] * L[75] + L[78] * L[85] + L[87] * L[94])) * Dinv[10];
   }
+  jr::compiler_fence();
   // column 11: joint 'waist_yaw'; 11 descendant(s), 6 ancestor row(s)
   {
     double sd = L[3] * L[3] + L[12] * L[12] + L[20] * L[20] + L[31] * L[31] + L[41] * L[41] + L[50] * L[50] + L[58] * L[58] + L[69] * L[69];
@@ -857,6 +868,7 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
     jr::store2(L + 129, (jr::set2(M[662], M[663]) - L[111] * jr::load2(L + 118)) * Dinv[13]);
     jr::store2(L + 131, (jr::set2(M[664], M[665]) - L[111] * jr::load2(L + 120)) * Dinv[13]);
   }
+  jr::compiler_fence();
   // column 14: joint 'left_knee'; 2 descendant(s), 9 ancestor row(s)
   {
     const double d = M[651] - (L[112] * L[112] + L[123] * L[123]);
@@ -901,6 +913,7 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
     jr::store2(L + 163, (jr::set2(M[602], M[603]) - (L[115] * jr::load2(L + 118) + L[126] * jr::load2(L + 129) + L[136] * jr::load2(L + 139) + L[145] * jr::load2(L + 148) + L[153] * jr::load2(L + 156))) * Dinv[17]);
     jr::store2(L + 165, (jr::set2(M[604], M[605]) - (L[115] * jr::load2(L + 120) + L[126] * jr::load2(L + 131) + L[136] * jr::load2(L + 141) + L[145] * jr::load2(L + 150) + L[153] * jr::load2(L + 158))) * Dinv[17]);
   }
+  jr::compiler_fence();
   // column 18: joint 'right_ankle_roll'; 0 descendant(s), 11 ancestor row(s)
   {
     const double d = M[899];
@@ -960,6 +973,7 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
     jr::store2(L + 214, (jr::set2(M[753], M[754]) - (L[171] * jr::load2(L + 176) + L[182] * jr::load2(L + 187) + L[192] * jr::load2(L + 197) + L[201] * jr::load2(L + 206))) * Dinv[22]);
     L[216] = (M[755] - (L[171] * L[178] + L[182] * L[189] + L[192] * L[199] + L[201] * L[208])) * Dinv[22];
   }
+  jr::compiler_fence();
   // column 23: joint 'right_hip' (coordinate 3 of 3); 5 descendant(s), 6 ancestor row(s)
   {
     const double d = M[806] - (L[172] * L[172] + L[183] * L[183] + L[193] * L[193] + L[202] * L[202] + L[210] * L[210]);
@@ -998,6 +1012,7 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
       L[229] = (M[5] - s) * Dinv[24];
     }
   }
+  jr::compiler_fence();
   // column 25: joint 'floating_base' (coordinate 2 of 6); 25 descendant(s), 4 ancestor row(s)
   {
     double sd = L[5] * L[5] + L[14] * L[14] + L[22] * L[22] + L[33] * L[33] + L[43] * L[43] + L[52] * L[52] + L[60] * L[60] + L[71] * L[71];
@@ -1023,6 +1038,7 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
       jr::store2(L + 233, (jr::set2(M[34], M[35]) - s) * Dinv[25]);
     }
   }
+  jr::compiler_fence();
   // column 26: joint 'floating_base' (coordinate 3 of 6); 26 descendant(s), 3 ancestor row(s)
   {
     double sd = L[6] * L[6] + L[15] * L[15] + L[23] * L[23] + L[34] * L[34] + L[44] * L[44] + L[53] * L[53] + L[61] * L[61] + L[72] * L[72];
@@ -1048,6 +1064,7 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
       L[238] = (M[65] - s) * Dinv[26];
     }
   }
+  jr::compiler_fence();
   // column 27: joint 'floating_base' (coordinate 4 of 6); 27 descendant(s), 2 ancestor row(s)
   {
     double sd = L[7] * L[7] + L[16] * L[16] + L[24] * L[24] + L[35] * L[35] + L[45] * L[45] + L[54] * L[54] + L[62] * L[62] + L[73] * L[73];
@@ -1084,6 +1101,7 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
       L[243] = (M[125] - s) * Dinv[28];
     }
   }
+  jr::compiler_fence();
   // column 29: joint 'floating_base' (coordinate 6 of 6); 29 descendant(s), 0 ancestor row(s)
   {
     double sd = L[9] * L[9] + L[18] * L[18] + L[26] * L[26] + L[37] * L[37] + L[47] * L[47] + L[56] * L[56] + L[64] * L[64] + L[75] * L[75];
