@@ -479,12 +479,7 @@ TEST(CliOutput, FencesOnlyInTheLongStepsOfLargeSolvers) {
   std::map<std::string, int> fences;  // function -> fences in it
   std::string function;               // the step being read, "" outside
   std::size_t products = 0;           // " * " since its start or the last fence
-  std::size_t pos = 0;
-  while (pos < large.size()) {
-    std::size_t end = large.find('\n', pos);
-    if (end == std::string::npos) end = large.size();
-    const std::string line = large.substr(pos, end - pos);
-    pos = end + 1;
+  for (const std::string& line : split_lines(large)) {
     if (line.rfind("JRGEN_STEP ", 0) == 0) {
       function = line.substr(line.find(' ', std::string("JRGEN_STEP ").size()) + 1);
       function = function.substr(0, function.find('(') + 1);
