@@ -59,7 +59,9 @@ std::string operation_report(const ir::Robot& robot, const topology::Tree& tree,
          "the order of L D L^T, one product w / d per entry, and L L^T then scales each\n"
          "column by 1 / sqrt(d): one more product per entry, for a shorter serial chain\n"
          "from one pivot to the next; the forward substitution for lambda rides along\n"
-         "(one more product per pivot; docs/benchmarks.md, run 7).\n";
+         "(one more product per pivot; docs/benchmarks.md, run 7).  The straight-line\n"
+         "L L^T Step 1 takes 1 / L[j,j] as sqrt(d) * (1 / d), one more product per\n"
+         "column, so that the square root and the division run side by side (run 8).\n";
   if (tree.nv == 27 && tree.nc() == 16) {
     const long long alg_s[4] = {3871, 4258, 513, 43};
     const long long ours[4] = {total.add, total.mul, total.div, total.sqrt};

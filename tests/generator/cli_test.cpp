@@ -1000,11 +1000,12 @@ INSTANTIATE_TEST_SUITE_P(Models, CliReport, ::testing::ValuesIn(report_cases()),
 //
 // L L^T:
 //   Step 1:  const double d = L[0];            -
-//            L[0] = std::sqrt(d);              1 SQ
-//            Dinv[0] = 1.0 / L[0];             1 D
+//            const double l = std::sqrt(d);    1 SQ
+//            L[0] = l;                         -
+//            Dinv[0] = l * (1.0 / d);          1 M, 1 D
 //   Step 2:  z[0] *= Dinv[0];                  1 M
 //   Step 4:  z[0] *= Dinv[0];                  1 M
-//   Total:   A 0, M 2, D 1, SQ 1.
+//   Total:   A 0, M 3, D 1, SQ 1.
 // L D L^T:
 //   Step 1:  L[0] = d;  Dinv[0] = 1.0 / d;     1 D
 //   Step 2:  (unit diagonal, one row: nothing)  -
@@ -1013,12 +1014,12 @@ INSTANTIATE_TEST_SUITE_P(Models, CliReport, ::testing::ValuesIn(report_cases()),
 TEST(CliReportByHand, PendulumLLT) {
   Generated g;
   ASSERT_NO_FATAL_FAILURE(generate({kPendulum}, &g));
-  expect_counts(g.table, "1", 0, 0, 1, 1);
+  expect_counts(g.table, "1", 0, 1, 1, 1);
   expect_counts(g.table, "2", 0, 1, 0, 0);
   expect_counts(g.table, "4", 0, 1, 0, 0);
   for (const char* step : {"3.1", "3.2", "3.3", "3.4", "3.5"}) expect_counts(g.table, step, 0, 0, 0, 0);
   EXPECT_EQ(g.table.counts[0][8], 0);  // A
-  EXPECT_EQ(g.table.counts[1][8], 2);  // M
+  EXPECT_EQ(g.table.counts[1][8], 3);  // M
   EXPECT_EQ(g.table.counts[2][8], 1);  // D
   EXPECT_EQ(g.table.counts[3][8], 1);  // SQ
 }
@@ -1041,20 +1042,20 @@ TEST(CliReportByHand, PendulumLDLT) {
 // holds L[0] = (0,0), L[1] = (1,0), L[2] = (1,1).  Pivot guards not counted.
 //
 // L L^T:
-//   Step 1, column 0:  L[0] = std::sqrt(d)                  1 SQ
-//                      Dinv[0] = 1.0 / L[0]                 1 D
+//   Step 1, column 0:  l = std::sqrt(d); L[0] = l           1 SQ
+//                      Dinv[0] = l * (1.0 / d)              1 M, 1 D
 //                      L[1] *= Dinv[0]                      1 M
 //           column 1:  d = L[2] - L[1] * L[1]               1 A, 1 M
-//                      L[2] = std::sqrt(d)                  1 SQ
-//                      Dinv[1] = 1.0 / L[2]                 1 D
-//                      Step 1: A 1, M 2, D 2, SQ 2.
+//                      l = std::sqrt(d); L[2] = l           1 SQ
+//                      Dinv[1] = l * (1.0 / d)              1 M, 1 D
+//                      Step 1: A 1, M 4, D 2, SQ 2.
 //   Step 2:  z[0] *= Dinv[0]                                1 M
 //            z[1] = (z[1] - L[1] * z[0]) * Dinv[1]          1 A, 2 M
 //                      Step 2: A 1, M 3.
 //   Step 4:  z[1] *= Dinv[1]                                1 M
 //            z[0] = (z[0] - L[1] * z[1]) * Dinv[0]          1 A, 2 M
 //                      Step 4: A 1, M 3.
-//   Total: A 3, M 8, D 2, SQ 2.
+//   Total: A 3, M 10, D 2, SQ 2.
 // L D L^T:
 //   Step 1, column 0:  Dinv[0] = 1.0 / d                    1 D
 //                      L[1] *= Dinv[0]                      1 M
@@ -1070,11 +1071,11 @@ TEST(CliReportByHand, PendulumLDLT) {
 TEST(CliReportByHand, DoublePendulumLLT) {
   Generated g;
   ASSERT_NO_FATAL_FAILURE(generate({(kCliDir / "double_pendulum.urdf").string()}, &g));
-  expect_counts(g.table, "1", 1, 2, 2, 2);
+  expect_counts(g.table, "1", 1, 4, 2, 2);
   expect_counts(g.table, "2", 1, 3, 0, 0);
   expect_counts(g.table, "4", 1, 3, 0, 0);
   EXPECT_EQ(g.table.counts[0][8], 3);
-  EXPECT_EQ(g.table.counts[1][8], 8);
+  EXPECT_EQ(g.table.counts[1][8], 10);
   EXPECT_EQ(g.table.counts[2][8], 2);
   EXPECT_EQ(g.table.counts[3][8], 2);
 }

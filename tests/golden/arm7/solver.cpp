@@ -132,14 +132,15 @@ void scatter_qdd(const double* __restrict z, double* __restrict qdd) {
 // ---- Step 1: factor M = L L^T in place (packed), eq. (25)-(26). ----
 // Lemma 2: no fill-in; column j reads only rows of its descendants
 // and writes only rows of its ancestors. Dinv[j] = 1 / pivot j.
-// Ops: 56 add, 77 mul, 7 div, 7 sqrt.
+// Ops: 56 add, 84 mul, 7 div, 7 sqrt.
 int step1_factor(double* __restrict L, double* __restrict Dinv) {
   // column 0: joint 'joint_7'; 0 descendant(s), 6 ancestor row(s)
   {
     const double d = L[0];
     if (!(d > kPivotTolerance * L[0])) return not_positive_definite(0, d);
-    L[0] = std::sqrt(d);
-    Dinv[0] = 1.0 / L[0];
+    const double l = std::sqrt(d);
+    L[0] = l;
+    Dinv[0] = l * (1.0 / d);
     jr::store2(L + 1, jr::load2(L + 1) * Dinv[0]);
     jr::store2(L + 3, jr::load2(L + 3) * Dinv[0]);
     jr::store2(L + 5, jr::load2(L + 5) * Dinv[0]);
@@ -148,8 +149,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[7] - L[1] * L[1];
     if (!(d > kPivotTolerance * L[7])) return not_positive_definite(1, d);
-    L[7] = std::sqrt(d);
-    Dinv[1] = 1.0 / L[7];
+    const double l = std::sqrt(d);
+    L[7] = l;
+    Dinv[1] = l * (1.0 / d);
     jr::store2(L + 8, (jr::load2(L + 8) - L[1] * jr::load2(L + 2)) * Dinv[1]);
     jr::store2(L + 10, (jr::load2(L + 10) - L[1] * jr::load2(L + 4)) * Dinv[1]);
     L[12] = (L[12] - L[1] * L[6]) * Dinv[1];
@@ -158,8 +160,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[13] - (L[2] * L[2] + L[8] * L[8]);
     if (!(d > kPivotTolerance * L[13])) return not_positive_definite(2, d);
-    L[13] = std::sqrt(d);
-    Dinv[2] = 1.0 / L[13];
+    const double l = std::sqrt(d);
+    L[13] = l;
+    Dinv[2] = l * (1.0 / d);
     jr::store2(L + 14, (jr::load2(L + 14) - (L[2] * jr::load2(L + 3) + L[8] * jr::load2(L + 9))) * Dinv[2]);
     jr::store2(L + 16, (jr::load2(L + 16) - (L[2] * jr::load2(L + 5) + L[8] * jr::load2(L + 11))) * Dinv[2]);
   }
@@ -167,8 +170,9 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[18] - (L[3] * L[3] + L[9] * L[9] + L[14] * L[14]);
     if (!(d > kPivotTolerance * L[18])) return not_positive_definite(3, d);
-    L[18] = std::sqrt(d);
-    Dinv[3] = 1.0 / L[18];
+    const double l = std::sqrt(d);
+    L[18] = l;
+    Dinv[3] = l * (1.0 / d);
     jr::store2(L + 19, (jr::load2(L + 19) - (L[3] * jr::load2(L + 4) + L[9] * jr::load2(L + 10) + L[14] * jr::load2(L + 15))) * Dinv[3]);
     L[21] = (L[21] - (L[3] * L[6] + L[9] * L[12] + L[14] * L[17])) * Dinv[3];
   }
@@ -176,24 +180,27 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[22] - (L[4] * L[4] + L[10] * L[10] + L[15] * L[15] + L[19] * L[19]);
     if (!(d > kPivotTolerance * L[22])) return not_positive_definite(4, d);
-    L[22] = std::sqrt(d);
-    Dinv[4] = 1.0 / L[22];
+    const double l = std::sqrt(d);
+    L[22] = l;
+    Dinv[4] = l * (1.0 / d);
     jr::store2(L + 23, (jr::load2(L + 23) - (L[4] * jr::load2(L + 5) + L[10] * jr::load2(L + 11) + L[15] * jr::load2(L + 16) + L[19] * jr::load2(L + 20))) * Dinv[4]);
   }
   // column 5: joint 'joint_2'; 5 descendant(s), 1 ancestor row(s)
   {
     const double d = L[25] - (L[5] * L[5] + L[11] * L[11] + L[16] * L[16] + L[20] * L[20] + L[23] * L[23]);
     if (!(d > kPivotTolerance * L[25])) return not_positive_definite(5, d);
-    L[25] = std::sqrt(d);
-    Dinv[5] = 1.0 / L[25];
+    const double l = std::sqrt(d);
+    L[25] = l;
+    Dinv[5] = l * (1.0 / d);
     L[26] = (L[26] - (L[5] * L[6] + L[11] * L[12] + L[16] * L[17] + L[20] * L[21] + L[23] * L[24])) * Dinv[5];
   }
   // column 6: joint 'joint_1'; 6 descendant(s), 0 ancestor row(s)
   {
     const double d = L[27] - (L[6] * L[6] + L[12] * L[12] + L[17] * L[17] + L[21] * L[21] + L[24] * L[24] + L[26] * L[26]);
     if (!(d > kPivotTolerance * L[27])) return not_positive_definite(6, d);
-    L[27] = std::sqrt(d);
-    Dinv[6] = 1.0 / L[27];
+    const double l = std::sqrt(d);
+    L[27] = l;
+    Dinv[6] = l * (1.0 / d);
   }
   return 0;
 }
@@ -207,8 +214,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
   {
     const double d = M[48];
     if (!(d > kPivotTolerance * M[48])) return not_positive_definite(0, d);
-    L[0] = std::sqrt(d);
-    Dinv[0] = 1.0 / L[0];
+    const double l = std::sqrt(d);
+    L[0] = l;
+    Dinv[0] = l * (1.0 / d);
     jr::store2(L + 1, jr::set2(M[47], M[46]) * Dinv[0]);
     jr::store2(L + 3, jr::set2(M[45], M[44]) * Dinv[0]);
     jr::store2(L + 5, jr::set2(M[43], M[42]) * Dinv[0]);
@@ -217,8 +225,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
   {
     const double d = M[40] - L[1] * L[1];
     if (!(d > kPivotTolerance * M[40])) return not_positive_definite(1, d);
-    L[7] = std::sqrt(d);
-    Dinv[1] = 1.0 / L[7];
+    const double l = std::sqrt(d);
+    L[7] = l;
+    Dinv[1] = l * (1.0 / d);
     jr::store2(L + 8, (jr::set2(M[39], M[38]) - L[1] * jr::load2(L + 2)) * Dinv[1]);
     jr::store2(L + 10, (jr::set2(M[37], M[36]) - L[1] * jr::load2(L + 4)) * Dinv[1]);
     L[12] = (M[35] - L[1] * L[6]) * Dinv[1];
@@ -227,8 +236,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
   {
     const double d = M[32] - (L[2] * L[2] + L[8] * L[8]);
     if (!(d > kPivotTolerance * M[32])) return not_positive_definite(2, d);
-    L[13] = std::sqrt(d);
-    Dinv[2] = 1.0 / L[13];
+    const double l = std::sqrt(d);
+    L[13] = l;
+    Dinv[2] = l * (1.0 / d);
     jr::store2(L + 14, (jr::set2(M[31], M[30]) - (L[2] * jr::load2(L + 3) + L[8] * jr::load2(L + 9))) * Dinv[2]);
     jr::store2(L + 16, (jr::set2(M[29], M[28]) - (L[2] * jr::load2(L + 5) + L[8] * jr::load2(L + 11))) * Dinv[2]);
   }
@@ -236,8 +246,9 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
   {
     const double d = M[24] - (L[3] * L[3] + L[9] * L[9] + L[14] * L[14]);
     if (!(d > kPivotTolerance * M[24])) return not_positive_definite(3, d);
-    L[18] = std::sqrt(d);
-    Dinv[3] = 1.0 / L[18];
+    const double l = std::sqrt(d);
+    L[18] = l;
+    Dinv[3] = l * (1.0 / d);
     jr::store2(L + 19, (jr::set2(M[23], M[22]) - (L[3] * jr::load2(L + 4) + L[9] * jr::load2(L + 10) + L[14] * jr::load2(L + 15))) * Dinv[3]);
     L[21] = (M[21] - (L[3] * L[6] + L[9] * L[12] + L[14] * L[17])) * Dinv[3];
   }
@@ -245,24 +256,27 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
   {
     const double d = M[16] - (L[4] * L[4] + L[10] * L[10] + L[15] * L[15] + L[19] * L[19]);
     if (!(d > kPivotTolerance * M[16])) return not_positive_definite(4, d);
-    L[22] = std::sqrt(d);
-    Dinv[4] = 1.0 / L[22];
+    const double l = std::sqrt(d);
+    L[22] = l;
+    Dinv[4] = l * (1.0 / d);
     jr::store2(L + 23, (jr::set2(M[15], M[14]) - (L[4] * jr::load2(L + 5) + L[10] * jr::load2(L + 11) + L[15] * jr::load2(L + 16) + L[19] * jr::load2(L + 20))) * Dinv[4]);
   }
   // column 5: joint 'joint_2'; 5 descendant(s), 1 ancestor row(s)
   {
     const double d = M[8] - (L[5] * L[5] + L[11] * L[11] + L[16] * L[16] + L[20] * L[20] + L[23] * L[23]);
     if (!(d > kPivotTolerance * M[8])) return not_positive_definite(5, d);
-    L[25] = std::sqrt(d);
-    Dinv[5] = 1.0 / L[25];
+    const double l = std::sqrt(d);
+    L[25] = l;
+    Dinv[5] = l * (1.0 / d);
     L[26] = (M[7] - (L[5] * L[6] + L[11] * L[12] + L[16] * L[17] + L[20] * L[21] + L[23] * L[24])) * Dinv[5];
   }
   // column 6: joint 'joint_1'; 6 descendant(s), 0 ancestor row(s)
   {
     const double d = M[0] - (L[6] * L[6] + L[12] * L[12] + L[17] * L[17] + L[21] * L[21] + L[24] * L[24] + L[26] * L[26]);
     if (!(d > kPivotTolerance * M[0])) return not_positive_definite(6, d);
-    L[27] = std::sqrt(d);
-    Dinv[6] = 1.0 / L[27];
+    const double l = std::sqrt(d);
+    L[27] = l;
+    Dinv[6] = l * (1.0 / d);
   }
   return 0;
 }

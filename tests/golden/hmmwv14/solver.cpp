@@ -169,7 +169,7 @@ int not_positive_definite(std::int32_t dof_lem, double pivot) {
               pivot);
 }
 
-// Each step below stays its own function (2199 additions and multiplications in all:
+// Each step below stays its own function (2226 additions and multiplications in all:
 // one function that large compiles to slower code), and the long steps
 // pass values from block to block through memory (jr::compiler_fence).
 #if defined(__GNUC__) || defined(__clang__)
@@ -245,14 +245,15 @@ void scatter_qdd(const double* __restrict z, double* __restrict qdd) {
 // ---- Step 1: factor M = L L^T in place (packed), eq. (25)-(26). ----
 // Lemma 2: no fill-in; column j reads only rows of its descendants
 // and writes only rows of its ancestors. Dinv[j] = 1 / pivot j.
-// Ops: 660 add, 825 mul, 27 div, 27 sqrt.
+// Ops: 660 add, 852 mul, 27 div, 27 sqrt.
 JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   // column 0: joint 'rf_upper_ball' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
     const double d = L[0];
     if (!(d > kPivotTolerance * L[0])) return not_positive_definite(0, d);
-    L[0] = std::sqrt(d);
-    Dinv[0] = 1.0 / L[0];
+    const double l = std::sqrt(d);
+    L[0] = l;
+    Dinv[0] = l * (1.0 / d);
     jr::store2(L + 1, jr::load2(L + 1) * Dinv[0]);
     jr::store2(L + 3, jr::load2(L + 3) * Dinv[0]);
     jr::store2(L + 5, jr::load2(L + 5) * Dinv[0]);
@@ -263,8 +264,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[10] - L[1] * L[1];
     if (!(d > kPivotTolerance * L[10])) return not_positive_definite(1, d);
-    L[10] = std::sqrt(d);
-    Dinv[1] = 1.0 / L[10];
+    const double l = std::sqrt(d);
+    L[10] = l;
+    Dinv[1] = l * (1.0 / d);
     jr::store2(L + 11, (jr::load2(L + 11) - L[1] * jr::load2(L + 2)) * Dinv[1]);
     jr::store2(L + 13, (jr::load2(L + 13) - L[1] * jr::load2(L + 4)) * Dinv[1]);
     jr::store2(L + 15, (jr::load2(L + 15) - L[1] * jr::load2(L + 6)) * Dinv[1]);
@@ -274,8 +276,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[19] - (L[2] * L[2] + L[11] * L[11]);
     if (!(d > kPivotTolerance * L[19])) return not_positive_definite(2, d);
-    L[19] = std::sqrt(d);
-    Dinv[2] = 1.0 / L[19];
+    const double l = std::sqrt(d);
+    L[19] = l;
+    Dinv[2] = l * (1.0 / d);
     jr::store2(L + 20, (jr::load2(L + 20) - (L[2] * jr::load2(L + 3) + L[11] * jr::load2(L + 12))) * Dinv[2]);
     jr::store2(L + 22, (jr::load2(L + 22) - (L[2] * jr::load2(L + 5) + L[11] * jr::load2(L + 14))) * Dinv[2]);
     jr::store2(L + 24, (jr::load2(L + 24) - (L[2] * jr::load2(L + 7) + L[11] * jr::load2(L + 16))) * Dinv[2]);
@@ -285,8 +288,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[27] - (L[3] * L[3] + L[12] * L[12] + L[20] * L[20]);
     if (!(d > kPivotTolerance * L[27])) return not_positive_definite(3, d);
-    L[27] = std::sqrt(d);
-    Dinv[3] = 1.0 / L[27];
+    const double l = std::sqrt(d);
+    L[27] = l;
+    Dinv[3] = l * (1.0 / d);
     jr::store2(L + 28, (jr::load2(L + 28) - (L[3] * jr::load2(L + 4) + L[12] * jr::load2(L + 13) + L[20] * jr::load2(L + 21))) * Dinv[3]);
     jr::store2(L + 30, (jr::load2(L + 30) - (L[3] * jr::load2(L + 6) + L[12] * jr::load2(L + 15) + L[20] * jr::load2(L + 23))) * Dinv[3]);
     jr::store2(L + 32, (jr::load2(L + 32) - (L[3] * jr::load2(L + 8) + L[12] * jr::load2(L + 17) + L[20] * jr::load2(L + 25))) * Dinv[3]);
@@ -295,8 +299,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[34];
     if (!(d > kPivotTolerance * L[34])) return not_positive_definite(4, d);
-    L[34] = std::sqrt(d);
-    Dinv[4] = 1.0 / L[34];
+    const double l = std::sqrt(d);
+    L[34] = l;
+    Dinv[4] = l * (1.0 / d);
     jr::store2(L + 35, jr::load2(L + 35) * Dinv[4]);
     jr::store2(L + 37, jr::load2(L + 37) * Dinv[4]);
     jr::store2(L + 39, jr::load2(L + 39) * Dinv[4]);
@@ -307,31 +312,34 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[44] - L[35] * L[35];
     if (!(d > kPivotTolerance * L[44])) return not_positive_definite(5, d);
-    L[44] = std::sqrt(d);
-    Dinv[5] = 1.0 / L[44];
+    const double l = std::sqrt(d);
+    L[44] = l;
+    Dinv[5] = l * (1.0 / d);
     jr::store2(L + 45, (jr::load2(L + 45) - L[35] * jr::load2(L + 36)) * Dinv[5]);
     jr::store2(L + 47, (jr::load2(L + 47) - L[35] * jr::load2(L + 38)) * Dinv[5]);
     jr::store2(L + 49, (jr::load2(L + 49) - L[35] * jr::load2(L + 40)) * Dinv[5]);
     jr::store2(L + 51, (jr::load2(L + 51) - L[35] * jr::load2(L + 42)) * Dinv[5]);
   }
+  jr::compiler_fence();
   // column 6: joint 'lf_upper_ball' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
   {
     const double d = L[53] - (L[36] * L[36] + L[45] * L[45]);
     if (!(d > kPivotTolerance * L[53])) return not_positive_definite(6, d);
-    L[53] = std::sqrt(d);
-    Dinv[6] = 1.0 / L[53];
+    const double l = std::sqrt(d);
+    L[53] = l;
+    Dinv[6] = l * (1.0 / d);
     jr::store2(L + 54, (jr::load2(L + 54) - (L[36] * jr::load2(L + 37) + L[45] * jr::load2(L + 46))) * Dinv[6]);
     jr::store2(L + 56, (jr::load2(L + 56) - (L[36] * jr::load2(L + 39) + L[45] * jr::load2(L + 48))) * Dinv[6]);
     jr::store2(L + 58, (jr::load2(L + 58) - (L[36] * jr::load2(L + 41) + L[45] * jr::load2(L + 50))) * Dinv[6]);
     L[60] = (L[60] - (L[36] * L[43] + L[45] * L[52])) * Dinv[6];
   }
-  jr::compiler_fence();
   // column 7: joint 'lf_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
   {
     const double d = L[61] - (L[37] * L[37] + L[46] * L[46] + L[54] * L[54]);
     if (!(d > kPivotTolerance * L[61])) return not_positive_definite(7, d);
-    L[61] = std::sqrt(d);
-    Dinv[7] = 1.0 / L[61];
+    const double l = std::sqrt(d);
+    L[61] = l;
+    Dinv[7] = l * (1.0 / d);
     jr::store2(L + 62, (jr::load2(L + 62) - (L[37] * jr::load2(L + 38) + L[46] * jr::load2(L + 47) + L[54] * jr::load2(L + 55))) * Dinv[7]);
     jr::store2(L + 64, (jr::load2(L + 64) - (L[37] * jr::load2(L + 40) + L[46] * jr::load2(L + 49) + L[54] * jr::load2(L + 57))) * Dinv[7]);
     jr::store2(L + 66, (jr::load2(L + 66) - (L[37] * jr::load2(L + 42) + L[46] * jr::load2(L + 51) + L[54] * jr::load2(L + 59))) * Dinv[7]);
@@ -340,8 +348,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[68];
     if (!(d > kPivotTolerance * L[68])) return not_positive_definite(8, d);
-    L[68] = std::sqrt(d);
-    Dinv[8] = 1.0 / L[68];
+    const double l = std::sqrt(d);
+    L[68] = l;
+    Dinv[8] = l * (1.0 / d);
     jr::store2(L + 69, jr::load2(L + 69) * Dinv[8]);
     jr::store2(L + 71, jr::load2(L + 71) * Dinv[8]);
     jr::store2(L + 73, jr::load2(L + 73) * Dinv[8]);
@@ -352,8 +361,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[78] - L[69] * L[69];
     if (!(d > kPivotTolerance * L[78])) return not_positive_definite(9, d);
-    L[78] = std::sqrt(d);
-    Dinv[9] = 1.0 / L[78];
+    const double l = std::sqrt(d);
+    L[78] = l;
+    Dinv[9] = l * (1.0 / d);
     jr::store2(L + 79, (jr::load2(L + 79) - L[69] * jr::load2(L + 70)) * Dinv[9]);
     jr::store2(L + 81, (jr::load2(L + 81) - L[69] * jr::load2(L + 72)) * Dinv[9]);
     jr::store2(L + 83, (jr::load2(L + 83) - L[69] * jr::load2(L + 74)) * Dinv[9]);
@@ -363,19 +373,22 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[87] - (L[70] * L[70] + L[79] * L[79]);
     if (!(d > kPivotTolerance * L[87])) return not_positive_definite(10, d);
-    L[87] = std::sqrt(d);
-    Dinv[10] = 1.0 / L[87];
+    const double l = std::sqrt(d);
+    L[87] = l;
+    Dinv[10] = l * (1.0 / d);
     jr::store2(L + 88, (jr::load2(L + 88) - (L[70] * jr::load2(L + 71) + L[79] * jr::load2(L + 80))) * Dinv[10]);
     jr::store2(L + 90, (jr::load2(L + 90) - (L[70] * jr::load2(L + 73) + L[79] * jr::load2(L + 82))) * Dinv[10]);
     jr::store2(L + 92, (jr::load2(L + 92) - (L[70] * jr::load2(L + 75) + L[79] * jr::load2(L + 84))) * Dinv[10]);
     L[94] = (L[94] - (L[70] * L[77] + L[79] * L[86])) * Dinv[10];
   }
+  jr::compiler_fence();
   // column 11: joint 'rr_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
   {
     const double d = L[95] - (L[71] * L[71] + L[80] * L[80] + L[88] * L[88]);
     if (!(d > kPivotTolerance * L[95])) return not_positive_definite(11, d);
-    L[95] = std::sqrt(d);
-    Dinv[11] = 1.0 / L[95];
+    const double l = std::sqrt(d);
+    L[95] = l;
+    Dinv[11] = l * (1.0 / d);
     jr::store2(L + 96, (jr::load2(L + 96) - (L[71] * jr::load2(L + 72) + L[80] * jr::load2(L + 81) + L[88] * jr::load2(L + 89))) * Dinv[11]);
     jr::store2(L + 98, (jr::load2(L + 98) - (L[71] * jr::load2(L + 74) + L[80] * jr::load2(L + 83) + L[88] * jr::load2(L + 91))) * Dinv[11]);
     jr::store2(L + 100, (jr::load2(L + 100) - (L[71] * jr::load2(L + 76) + L[80] * jr::load2(L + 85) + L[88] * jr::load2(L + 93))) * Dinv[11]);
@@ -384,21 +397,22 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[102];
     if (!(d > kPivotTolerance * L[102])) return not_positive_definite(12, d);
-    L[102] = std::sqrt(d);
-    Dinv[12] = 1.0 / L[102];
+    const double l = std::sqrt(d);
+    L[102] = l;
+    Dinv[12] = l * (1.0 / d);
     jr::store2(L + 103, jr::load2(L + 103) * Dinv[12]);
     jr::store2(L + 105, jr::load2(L + 105) * Dinv[12]);
     jr::store2(L + 107, jr::load2(L + 107) * Dinv[12]);
     jr::store2(L + 109, jr::load2(L + 109) * Dinv[12]);
     L[111] *= Dinv[12];
   }
-  jr::compiler_fence();
   // column 13: joint 'lr_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
   {
     const double d = L[112] - L[103] * L[103];
     if (!(d > kPivotTolerance * L[112])) return not_positive_definite(13, d);
-    L[112] = std::sqrt(d);
-    Dinv[13] = 1.0 / L[112];
+    const double l = std::sqrt(d);
+    L[112] = l;
+    Dinv[13] = l * (1.0 / d);
     jr::store2(L + 113, (jr::load2(L + 113) - L[103] * jr::load2(L + 104)) * Dinv[13]);
     jr::store2(L + 115, (jr::load2(L + 115) - L[103] * jr::load2(L + 106)) * Dinv[13]);
     jr::store2(L + 117, (jr::load2(L + 117) - L[103] * jr::load2(L + 108)) * Dinv[13]);
@@ -408,8 +422,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[121] - (L[104] * L[104] + L[113] * L[113]);
     if (!(d > kPivotTolerance * L[121])) return not_positive_definite(14, d);
-    L[121] = std::sqrt(d);
-    Dinv[14] = 1.0 / L[121];
+    const double l = std::sqrt(d);
+    L[121] = l;
+    Dinv[14] = l * (1.0 / d);
     jr::store2(L + 122, (jr::load2(L + 122) - (L[104] * jr::load2(L + 105) + L[113] * jr::load2(L + 114))) * Dinv[14]);
     jr::store2(L + 124, (jr::load2(L + 124) - (L[104] * jr::load2(L + 107) + L[113] * jr::load2(L + 116))) * Dinv[14]);
     jr::store2(L + 126, (jr::load2(L + 126) - (L[104] * jr::load2(L + 109) + L[113] * jr::load2(L + 118))) * Dinv[14]);
@@ -419,18 +434,21 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[129] - (L[105] * L[105] + L[114] * L[114] + L[122] * L[122]);
     if (!(d > kPivotTolerance * L[129])) return not_positive_definite(15, d);
-    L[129] = std::sqrt(d);
-    Dinv[15] = 1.0 / L[129];
+    const double l = std::sqrt(d);
+    L[129] = l;
+    Dinv[15] = l * (1.0 / d);
     jr::store2(L + 130, (jr::load2(L + 130) - (L[105] * jr::load2(L + 106) + L[114] * jr::load2(L + 115) + L[122] * jr::load2(L + 123))) * Dinv[15]);
     jr::store2(L + 132, (jr::load2(L + 132) - (L[105] * jr::load2(L + 108) + L[114] * jr::load2(L + 117) + L[122] * jr::load2(L + 125))) * Dinv[15]);
     jr::store2(L + 134, (jr::load2(L + 134) - (L[105] * jr::load2(L + 110) + L[114] * jr::load2(L + 119) + L[122] * jr::load2(L + 127))) * Dinv[15]);
   }
+  jr::compiler_fence();
   // column 16: joint 'rack_slide'; 0 descendant(s), 6 ancestor row(s)
   {
     const double d = L[136];
     if (!(d > kPivotTolerance * L[136])) return not_positive_definite(16, d);
-    L[136] = std::sqrt(d);
-    Dinv[16] = 1.0 / L[136];
+    const double l = std::sqrt(d);
+    L[136] = l;
+    Dinv[16] = l * (1.0 / d);
     jr::store2(L + 137, jr::load2(L + 137) * Dinv[16]);
     jr::store2(L + 139, jr::load2(L + 139) * Dinv[16]);
     jr::store2(L + 141, jr::load2(L + 141) * Dinv[16]);
@@ -439,8 +457,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[143];
     if (!(d > kPivotTolerance * L[143])) return not_positive_definite(17, d);
-    L[143] = std::sqrt(d);
-    Dinv[17] = 1.0 / L[143];
+    const double l = std::sqrt(d);
+    L[143] = l;
+    Dinv[17] = l * (1.0 / d);
     jr::store2(L + 144, jr::load2(L + 144) * Dinv[17]);
     jr::store2(L + 146, jr::load2(L + 146) * Dinv[17]);
     jr::store2(L + 148, jr::load2(L + 148) * Dinv[17]);
@@ -449,8 +468,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[150];
     if (!(d > kPivotTolerance * L[150])) return not_positive_definite(18, d);
-    L[150] = std::sqrt(d);
-    Dinv[18] = 1.0 / L[150];
+    const double l = std::sqrt(d);
+    L[150] = l;
+    Dinv[18] = l * (1.0 / d);
     jr::store2(L + 151, jr::load2(L + 151) * Dinv[18]);
     jr::store2(L + 153, jr::load2(L + 153) * Dinv[18]);
     jr::store2(L + 155, jr::load2(L + 155) * Dinv[18]);
@@ -459,8 +479,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[157];
     if (!(d > kPivotTolerance * L[157])) return not_positive_definite(19, d);
-    L[157] = std::sqrt(d);
-    Dinv[19] = 1.0 / L[157];
+    const double l = std::sqrt(d);
+    L[157] = l;
+    Dinv[19] = l * (1.0 / d);
     jr::store2(L + 158, jr::load2(L + 158) * Dinv[19]);
     jr::store2(L + 160, jr::load2(L + 160) * Dinv[19]);
     jr::store2(L + 162, jr::load2(L + 162) * Dinv[19]);
@@ -469,8 +490,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[164];
     if (!(d > kPivotTolerance * L[164])) return not_positive_definite(20, d);
-    L[164] = std::sqrt(d);
-    Dinv[20] = 1.0 / L[164];
+    const double l = std::sqrt(d);
+    L[164] = l;
+    Dinv[20] = l * (1.0 / d);
     jr::store2(L + 165, jr::load2(L + 165) * Dinv[20]);
     jr::store2(L + 167, jr::load2(L + 167) * Dinv[20]);
     jr::store2(L + 169, jr::load2(L + 169) * Dinv[20]);
@@ -482,8 +504,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
     sd += L[137] * L[137] + L[144] * L[144] + L[151] * L[151] + L[158] * L[158] + L[165] * L[165];
     const double d = L[171] - sd;
     if (!(d > kPivotTolerance * L[171])) return not_positive_definite(21, d);
-    L[171] = std::sqrt(d);
-    Dinv[21] = 1.0 / L[171];
+    const double l = std::sqrt(d);
+    L[171] = l;
+    Dinv[21] = l * (1.0 / d);
     {
       jr::v2d s = L[4] * jr::load2(L + 5) + L[13] * jr::load2(L + 14) + L[21] * jr::load2(L + 22) + L[28] * jr::load2(L + 29) + L[38] * jr::load2(L + 39) + L[47] * jr::load2(L + 48) + L[55] * jr::load2(L + 56) + L[62] * jr::load2(L + 63);
       s += L[72] * jr::load2(L + 73) + L[81] * jr::load2(L + 82) + L[89] * jr::load2(L + 90) + L[96] * jr::load2(L + 97) + L[106] * jr::load2(L + 107) + L[115] * jr::load2(L + 116) + L[123] * jr::load2(L + 124) + L[130] * jr::load2(L + 131);
@@ -511,8 +534,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
     sd += L[138] * L[138] + L[145] * L[145] + L[152] * L[152] + L[159] * L[159] + L[166] * L[166] + L[172] * L[172];
     const double d = L[177] - sd;
     if (!(d > kPivotTolerance * L[177])) return not_positive_definite(22, d);
-    L[177] = std::sqrt(d);
-    Dinv[22] = 1.0 / L[177];
+    const double l = std::sqrt(d);
+    L[177] = l;
+    Dinv[22] = l * (1.0 / d);
     {
       jr::v2d s = L[5] * jr::load2(L + 6) + L[14] * jr::load2(L + 15) + L[22] * jr::load2(L + 23) + L[29] * jr::load2(L + 30) + L[39] * jr::load2(L + 40) + L[48] * jr::load2(L + 49) + L[56] * jr::load2(L + 57) + L[63] * jr::load2(L + 64);
       s += L[73] * jr::load2(L + 74) + L[82] * jr::load2(L + 83) + L[90] * jr::load2(L + 91) + L[97] * jr::load2(L + 98) + L[107] * jr::load2(L + 108) + L[116] * jr::load2(L + 117) + L[124] * jr::load2(L + 125) + L[131] * jr::load2(L + 132);
@@ -534,8 +558,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
     sd += L[139] * L[139] + L[146] * L[146] + L[153] * L[153] + L[160] * L[160] + L[167] * L[167] + L[173] * L[173] + L[178] * L[178];
     const double d = L[182] - sd;
     if (!(d > kPivotTolerance * L[182])) return not_positive_definite(23, d);
-    L[182] = std::sqrt(d);
-    Dinv[23] = 1.0 / L[182];
+    const double l = std::sqrt(d);
+    L[182] = l;
+    Dinv[23] = l * (1.0 / d);
     {
       jr::v2d s = L[6] * jr::load2(L + 7) + L[15] * jr::load2(L + 16) + L[23] * jr::load2(L + 24) + L[30] * jr::load2(L + 31) + L[40] * jr::load2(L + 41) + L[49] * jr::load2(L + 50) + L[57] * jr::load2(L + 58) + L[64] * jr::load2(L + 65);
       s += L[74] * jr::load2(L + 75) + L[83] * jr::load2(L + 84) + L[91] * jr::load2(L + 92) + L[98] * jr::load2(L + 99) + L[108] * jr::load2(L + 109) + L[117] * jr::load2(L + 118) + L[125] * jr::load2(L + 126) + L[132] * jr::load2(L + 133);
@@ -557,8 +582,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
     sd += L[140] * L[140] + L[147] * L[147] + L[154] * L[154] + L[161] * L[161] + L[168] * L[168] + L[174] * L[174] + L[179] * L[179] + L[183] * L[183];
     const double d = L[186] - sd;
     if (!(d > kPivotTolerance * L[186])) return not_positive_definite(24, d);
-    L[186] = std::sqrt(d);
-    Dinv[24] = 1.0 / L[186];
+    const double l = std::sqrt(d);
+    L[186] = l;
+    Dinv[24] = l * (1.0 / d);
     {
       jr::v2d s = L[7] * jr::load2(L + 8) + L[16] * jr::load2(L + 17) + L[24] * jr::load2(L + 25) + L[31] * jr::load2(L + 32) + L[41] * jr::load2(L + 42) + L[50] * jr::load2(L + 51) + L[58] * jr::load2(L + 59) + L[65] * jr::load2(L + 66);
       s += L[75] * jr::load2(L + 76) + L[84] * jr::load2(L + 85) + L[92] * jr::load2(L + 93) + L[99] * jr::load2(L + 100) + L[109] * jr::load2(L + 110) + L[118] * jr::load2(L + 119) + L[126] * jr::load2(L + 127) + L[133] * jr::load2(L + 134);
@@ -574,8 +600,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
     sd += L[187] * L[187];
     const double d = L[189] - sd;
     if (!(d > kPivotTolerance * L[189])) return not_positive_definite(25, d);
-    L[189] = std::sqrt(d);
-    Dinv[25] = 1.0 / L[189];
+    const double l = std::sqrt(d);
+    L[189] = l;
+    Dinv[25] = l * (1.0 / d);
     {
       double s = L[8] * L[9] + L[17] * L[18] + L[25] * L[26] + L[32] * L[33] + L[42] * L[43] + L[51] * L[52] + L[59] * L[60] + L[66] * L[67];
       s += L[76] * L[77] + L[85] * L[86] + L[93] * L[94] + L[100] * L[101] + L[110] * L[111] + L[119] * L[120] + L[127] * L[128] + L[134] * L[135];
@@ -593,8 +620,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
     sd += L[188] * L[188] + L[190] * L[190];
     const double d = L[191] - sd;
     if (!(d > kPivotTolerance * L[191])) return not_positive_definite(26, d);
-    L[191] = std::sqrt(d);
-    Dinv[26] = 1.0 / L[191];
+    const double l = std::sqrt(d);
+    L[191] = l;
+    Dinv[26] = l * (1.0 / d);
   }
   return 0;
 }
@@ -608,8 +636,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[196];
     if (!(d > kPivotTolerance * M[196])) return not_positive_definite(0, d);
-    L[0] = std::sqrt(d);
-    Dinv[0] = 1.0 / L[0];
+    const double l = std::sqrt(d);
+    L[0] = l;
+    Dinv[0] = l * (1.0 / d);
     jr::store2(L + 1, jr::set2(M[197], M[198]) * Dinv[0]);
     jr::store2(L + 3, jr::set2(M[195], M[189]) * Dinv[0]);
     jr::store2(L + 5, jr::set2(M[190], M[191]) * Dinv[0]);
@@ -620,8 +649,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[224] - L[1] * L[1];
     if (!(d > kPivotTolerance * M[224])) return not_positive_definite(1, d);
-    L[10] = std::sqrt(d);
-    Dinv[1] = 1.0 / L[10];
+    const double l = std::sqrt(d);
+    L[10] = l;
+    Dinv[1] = l * (1.0 / d);
     jr::store2(L + 11, (jr::set2(M[225], M[222]) - L[1] * jr::load2(L + 2)) * Dinv[1]);
     jr::store2(L + 13, (jr::set2(M[216], M[217]) - L[1] * jr::load2(L + 4)) * Dinv[1]);
     jr::store2(L + 15, (jr::set2(M[218], M[219]) - L[1] * jr::load2(L + 6)) * Dinv[1]);
@@ -631,8 +661,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[252] - (L[2] * L[2] + L[11] * L[11]);
     if (!(d > kPivotTolerance * M[252])) return not_positive_definite(2, d);
-    L[19] = std::sqrt(d);
-    Dinv[2] = 1.0 / L[19];
+    const double l = std::sqrt(d);
+    L[19] = l;
+    Dinv[2] = l * (1.0 / d);
     jr::store2(L + 20, (jr::set2(M[249], M[243]) - (L[2] * jr::load2(L + 3) + L[11] * jr::load2(L + 12))) * Dinv[2]);
     jr::store2(L + 22, (jr::set2(M[244], M[245]) - (L[2] * jr::load2(L + 5) + L[11] * jr::load2(L + 14))) * Dinv[2]);
     jr::store2(L + 24, (jr::set2(M[246], M[247]) - (L[2] * jr::load2(L + 7) + L[11] * jr::load2(L + 16))) * Dinv[2]);
@@ -642,8 +673,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[168] - (L[3] * L[3] + L[12] * L[12] + L[20] * L[20]);
     if (!(d > kPivotTolerance * M[168])) return not_positive_definite(3, d);
-    L[27] = std::sqrt(d);
-    Dinv[3] = 1.0 / L[27];
+    const double l = std::sqrt(d);
+    L[27] = l;
+    Dinv[3] = l * (1.0 / d);
     jr::store2(L + 28, (jr::set2(M[162], M[163]) - (L[3] * jr::load2(L + 4) + L[12] * jr::load2(L + 13) + L[20] * jr::load2(L + 21))) * Dinv[3]);
     jr::store2(L + 30, (jr::set2(M[164], M[165]) - (L[3] * jr::load2(L + 6) + L[12] * jr::load2(L + 15) + L[20] * jr::load2(L + 23))) * Dinv[3]);
     jr::store2(L + 32, (jr::set2(M[166], M[167]) - (L[3] * jr::load2(L + 8) + L[12] * jr::load2(L + 17) + L[20] * jr::load2(L + 25))) * Dinv[3]);
@@ -652,8 +684,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[308];
     if (!(d > kPivotTolerance * M[308])) return not_positive_definite(4, d);
-    L[34] = std::sqrt(d);
-    Dinv[4] = 1.0 / L[34];
+    const double l = std::sqrt(d);
+    L[34] = l;
+    Dinv[4] = l * (1.0 / d);
     jr::store2(L + 35, jr::set2(M[309], M[310]) * Dinv[4]);
     jr::store2(L + 37, jr::set2(M[307], M[297]) * Dinv[4]);
     jr::store2(L + 39, jr::set2(M[298], M[299]) * Dinv[4]);
@@ -664,31 +697,34 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[336] - L[35] * L[35];
     if (!(d > kPivotTolerance * M[336])) return not_positive_definite(5, d);
-    L[44] = std::sqrt(d);
-    Dinv[5] = 1.0 / L[44];
+    const double l = std::sqrt(d);
+    L[44] = l;
+    Dinv[5] = l * (1.0 / d);
     jr::store2(L + 45, (jr::set2(M[337], M[334]) - L[35] * jr::load2(L + 36)) * Dinv[5]);
     jr::store2(L + 47, (jr::set2(M[324], M[325]) - L[35] * jr::load2(L + 38)) * Dinv[5]);
     jr::store2(L + 49, (jr::set2(M[326], M[327]) - L[35] * jr::load2(L + 40)) * Dinv[5]);
     jr::store2(L + 51, (jr::set2(M[328], M[329]) - L[35] * jr::load2(L + 42)) * Dinv[5]);
   }
+  jr::compiler_fence();
   // column 6: joint 'lf_upper_ball' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
   {
     const double d = M[364] - (L[36] * L[36] + L[45] * L[45]);
     if (!(d > kPivotTolerance * M[364])) return not_positive_definite(6, d);
-    L[53] = std::sqrt(d);
-    Dinv[6] = 1.0 / L[53];
+    const double l = std::sqrt(d);
+    L[53] = l;
+    Dinv[6] = l * (1.0 / d);
     jr::store2(L + 54, (jr::set2(M[361], M[351]) - (L[36] * jr::load2(L + 37) + L[45] * jr::load2(L + 46))) * Dinv[6]);
     jr::store2(L + 56, (jr::set2(M[352], M[353]) - (L[36] * jr::load2(L + 39) + L[45] * jr::load2(L + 48))) * Dinv[6]);
     jr::store2(L + 58, (jr::set2(M[354], M[355]) - (L[36] * jr::load2(L + 41) + L[45] * jr::load2(L + 50))) * Dinv[6]);
     L[60] = (M[356] - (L[36] * L[43] + L[45] * L[52])) * Dinv[6];
   }
-  jr::compiler_fence();
   // column 7: joint 'lf_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
   {
     const double d = M[280] - (L[37] * L[37] + L[46] * L[46] + L[54] * L[54]);
     if (!(d > kPivotTolerance * M[280])) return not_positive_definite(7, d);
-    L[61] = std::sqrt(d);
-    Dinv[7] = 1.0 / L[61];
+    const double l = std::sqrt(d);
+    L[61] = l;
+    Dinv[7] = l * (1.0 / d);
     jr::store2(L + 62, (jr::set2(M[270], M[271]) - (L[37] * jr::load2(L + 38) + L[46] * jr::load2(L + 47) + L[54] * jr::load2(L + 55))) * Dinv[7]);
     jr::store2(L + 64, (jr::set2(M[272], M[273]) - (L[37] * jr::load2(L + 40) + L[46] * jr::load2(L + 49) + L[54] * jr::load2(L + 57))) * Dinv[7]);
     jr::store2(L + 66, (jr::set2(M[274], M[275]) - (L[37] * jr::load2(L + 42) + L[46] * jr::load2(L + 51) + L[54] * jr::load2(L + 59))) * Dinv[7]);
@@ -697,8 +733,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[420];
     if (!(d > kPivotTolerance * M[420])) return not_positive_definite(8, d);
-    L[68] = std::sqrt(d);
-    Dinv[8] = 1.0 / L[68];
+    const double l = std::sqrt(d);
+    L[68] = l;
+    Dinv[8] = l * (1.0 / d);
     jr::store2(L + 69, jr::set2(M[421], M[422]) * Dinv[8]);
     jr::store2(L + 71, jr::set2(M[419], M[405]) * Dinv[8]);
     jr::store2(L + 73, jr::set2(M[406], M[407]) * Dinv[8]);
@@ -709,8 +746,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[448] - L[69] * L[69];
     if (!(d > kPivotTolerance * M[448])) return not_positive_definite(9, d);
-    L[78] = std::sqrt(d);
-    Dinv[9] = 1.0 / L[78];
+    const double l = std::sqrt(d);
+    L[78] = l;
+    Dinv[9] = l * (1.0 / d);
     jr::store2(L + 79, (jr::set2(M[449], M[446]) - L[69] * jr::load2(L + 70)) * Dinv[9]);
     jr::store2(L + 81, (jr::set2(M[432], M[433]) - L[69] * jr::load2(L + 72)) * Dinv[9]);
     jr::store2(L + 83, (jr::set2(M[434], M[435]) - L[69] * jr::load2(L + 74)) * Dinv[9]);
@@ -720,19 +758,22 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[476] - (L[70] * L[70] + L[79] * L[79]);
     if (!(d > kPivotTolerance * M[476])) return not_positive_definite(10, d);
-    L[87] = std::sqrt(d);
-    Dinv[10] = 1.0 / L[87];
+    const double l = std::sqrt(d);
+    L[87] = l;
+    Dinv[10] = l * (1.0 / d);
     jr::store2(L + 88, (jr::set2(M[473], M[459]) - (L[70] * jr::load2(L + 71) + L[79] * jr::load2(L + 80))) * Dinv[10]);
     jr::store2(L + 90, (jr::set2(M[460], M[461]) - (L[70] * jr::load2(L + 73) + L[79] * jr::load2(L + 82))) * Dinv[10]);
     jr::store2(L + 92, (jr::set2(M[462], M[463]) - (L[70] * jr::load2(L + 75) + L[79] * jr::load2(L + 84))) * Dinv[10]);
     L[94] = (M[464] - (L[70] * L[77] + L[79] * L[86])) * Dinv[10];
   }
+  jr::compiler_fence();
   // column 11: joint 'rr_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
   {
     const double d = M[392] - (L[71] * L[71] + L[80] * L[80] + L[88] * L[88]);
     if (!(d > kPivotTolerance * M[392])) return not_positive_definite(11, d);
-    L[95] = std::sqrt(d);
-    Dinv[11] = 1.0 / L[95];
+    const double l = std::sqrt(d);
+    L[95] = l;
+    Dinv[11] = l * (1.0 / d);
     jr::store2(L + 96, (jr::set2(M[378], M[379]) - (L[71] * jr::load2(L + 72) + L[80] * jr::load2(L + 81) + L[88] * jr::load2(L + 89))) * Dinv[11]);
     jr::store2(L + 98, (jr::set2(M[380], M[381]) - (L[71] * jr::load2(L + 74) + L[80] * jr::load2(L + 83) + L[88] * jr::load2(L + 91))) * Dinv[11]);
     jr::store2(L + 100, (jr::set2(M[382], M[383]) - (L[71] * jr::load2(L + 76) + L[80] * jr::load2(L + 85) + L[88] * jr::load2(L + 93))) * Dinv[11]);
@@ -741,21 +782,22 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[532];
     if (!(d > kPivotTolerance * M[532])) return not_positive_definite(12, d);
-    L[102] = std::sqrt(d);
-    Dinv[12] = 1.0 / L[102];
+    const double l = std::sqrt(d);
+    L[102] = l;
+    Dinv[12] = l * (1.0 / d);
     jr::store2(L + 103, jr::set2(M[533], M[534]) * Dinv[12]);
     jr::store2(L + 105, jr::set2(M[531], M[513]) * Dinv[12]);
     jr::store2(L + 107, jr::set2(M[514], M[515]) * Dinv[12]);
     jr::store2(L + 109, jr::set2(M[516], M[517]) * Dinv[12]);
     L[111] = M[518] * Dinv[12];
   }
-  jr::compiler_fence();
   // column 13: joint 'lr_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
   {
     const double d = M[560] - L[103] * L[103];
     if (!(d > kPivotTolerance * M[560])) return not_positive_definite(13, d);
-    L[112] = std::sqrt(d);
-    Dinv[13] = 1.0 / L[112];
+    const double l = std::sqrt(d);
+    L[112] = l;
+    Dinv[13] = l * (1.0 / d);
     jr::store2(L + 113, (jr::set2(M[561], M[558]) - L[103] * jr::load2(L + 104)) * Dinv[13]);
     jr::store2(L + 115, (jr::set2(M[540], M[541]) - L[103] * jr::load2(L + 106)) * Dinv[13]);
     jr::store2(L + 117, (jr::set2(M[542], M[543]) - L[103] * jr::load2(L + 108)) * Dinv[13]);
@@ -765,8 +807,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[588] - (L[104] * L[104] + L[113] * L[113]);
     if (!(d > kPivotTolerance * M[588])) return not_positive_definite(14, d);
-    L[121] = std::sqrt(d);
-    Dinv[14] = 1.0 / L[121];
+    const double l = std::sqrt(d);
+    L[121] = l;
+    Dinv[14] = l * (1.0 / d);
     jr::store2(L + 122, (jr::set2(M[585], M[567]) - (L[104] * jr::load2(L + 105) + L[113] * jr::load2(L + 114))) * Dinv[14]);
     jr::store2(L + 124, (jr::set2(M[568], M[569]) - (L[104] * jr::load2(L + 107) + L[113] * jr::load2(L + 116))) * Dinv[14]);
     jr::store2(L + 126, (jr::set2(M[570], M[571]) - (L[104] * jr::load2(L + 109) + L[113] * jr::load2(L + 118))) * Dinv[14]);
@@ -776,18 +819,21 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[504] - (L[105] * L[105] + L[114] * L[114] + L[122] * L[122]);
     if (!(d > kPivotTolerance * M[504])) return not_positive_definite(15, d);
-    L[129] = std::sqrt(d);
-    Dinv[15] = 1.0 / L[129];
+    const double l = std::sqrt(d);
+    L[129] = l;
+    Dinv[15] = l * (1.0 / d);
     jr::store2(L + 130, (jr::set2(M[486], M[487]) - (L[105] * jr::load2(L + 106) + L[114] * jr::load2(L + 115) + L[122] * jr::load2(L + 123))) * Dinv[15]);
     jr::store2(L + 132, (jr::set2(M[488], M[489]) - (L[105] * jr::load2(L + 108) + L[114] * jr::load2(L + 117) + L[122] * jr::load2(L + 125))) * Dinv[15]);
     jr::store2(L + 134, (jr::set2(M[490], M[491]) - (L[105] * jr::load2(L + 110) + L[114] * jr::load2(L + 119) + L[122] * jr::load2(L + 127))) * Dinv[15]);
   }
+  jr::compiler_fence();
   // column 16: joint 'rack_slide'; 0 descendant(s), 6 ancestor row(s)
   {
     const double d = M[616];
     if (!(d > kPivotTolerance * M[616])) return not_positive_definite(16, d);
-    L[136] = std::sqrt(d);
-    Dinv[16] = 1.0 / L[136];
+    const double l = std::sqrt(d);
+    L[136] = l;
+    Dinv[16] = l * (1.0 / d);
     jr::store2(L + 137, jr::set2(M[594], M[595]) * Dinv[16]);
     jr::store2(L + 139, jr::set2(M[596], M[597]) * Dinv[16]);
     jr::store2(L + 141, jr::set2(M[598], M[599]) * Dinv[16]);
@@ -796,8 +842,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[644];
     if (!(d > kPivotTolerance * M[644])) return not_positive_definite(17, d);
-    L[143] = std::sqrt(d);
-    Dinv[17] = 1.0 / L[143];
+    const double l = std::sqrt(d);
+    L[143] = l;
+    Dinv[17] = l * (1.0 / d);
     jr::store2(L + 144, jr::set2(M[621], M[622]) * Dinv[17]);
     jr::store2(L + 146, jr::set2(M[623], M[624]) * Dinv[17]);
     jr::store2(L + 148, jr::set2(M[625], M[626]) * Dinv[17]);
@@ -806,8 +853,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[672];
     if (!(d > kPivotTolerance * M[672])) return not_positive_definite(18, d);
-    L[150] = std::sqrt(d);
-    Dinv[18] = 1.0 / L[150];
+    const double l = std::sqrt(d);
+    L[150] = l;
+    Dinv[18] = l * (1.0 / d);
     jr::store2(L + 151, jr::set2(M[648], M[649]) * Dinv[18]);
     jr::store2(L + 153, jr::set2(M[650], M[651]) * Dinv[18]);
     jr::store2(L + 155, jr::set2(M[652], M[653]) * Dinv[18]);
@@ -816,8 +864,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[700];
     if (!(d > kPivotTolerance * M[700])) return not_positive_definite(19, d);
-    L[157] = std::sqrt(d);
-    Dinv[19] = 1.0 / L[157];
+    const double l = std::sqrt(d);
+    L[157] = l;
+    Dinv[19] = l * (1.0 / d);
     jr::store2(L + 158, jr::set2(M[675], M[676]) * Dinv[19]);
     jr::store2(L + 160, jr::set2(M[677], M[678]) * Dinv[19]);
     jr::store2(L + 162, jr::set2(M[679], M[680]) * Dinv[19]);
@@ -826,8 +875,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[728];
     if (!(d > kPivotTolerance * M[728])) return not_positive_definite(20, d);
-    L[164] = std::sqrt(d);
-    Dinv[20] = 1.0 / L[164];
+    const double l = std::sqrt(d);
+    L[164] = l;
+    Dinv[20] = l * (1.0 / d);
     jr::store2(L + 165, jr::set2(M[702], M[703]) * Dinv[20]);
     jr::store2(L + 167, jr::set2(M[704], M[705]) * Dinv[20]);
     jr::store2(L + 169, jr::set2(M[706], M[707]) * Dinv[20]);
@@ -839,8 +889,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
     sd += L[137] * L[137] + L[144] * L[144] + L[151] * L[151] + L[158] * L[158] + L[165] * L[165];
     const double d = M[0] - sd;
     if (!(d > kPivotTolerance * M[0])) return not_positive_definite(21, d);
-    L[171] = std::sqrt(d);
-    Dinv[21] = 1.0 / L[171];
+    const double l = std::sqrt(d);
+    L[171] = l;
+    Dinv[21] = l * (1.0 / d);
     {
       jr::v2d s = L[4] * jr::load2(L + 5) + L[13] * jr::load2(L + 14) + L[21] * jr::load2(L + 22) + L[28] * jr::load2(L + 29) + L[38] * jr::load2(L + 39) + L[47] * jr::load2(L + 48) + L[55] * jr::load2(L + 56) + L[62] * jr::load2(L + 63);
       s += L[72] * jr::load2(L + 73) + L[81] * jr::load2(L + 82) + L[89] * jr::load2(L + 90) + L[96] * jr::load2(L + 97) + L[106] * jr::load2(L + 107) + L[115] * jr::load2(L + 116) + L[123] * jr::load2(L + 124) + L[130] * jr::load2(L + 131);
@@ -868,8 +919,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
     sd += L[138] * L[138] + L[145] * L[145] + L[152] * L[152] + L[159] * L[159] + L[166] * L[166] + L[172] * L[172];
     const double d = M[28] - sd;
     if (!(d > kPivotTolerance * M[28])) return not_positive_definite(22, d);
-    L[177] = std::sqrt(d);
-    Dinv[22] = 1.0 / L[177];
+    const double l = std::sqrt(d);
+    L[177] = l;
+    Dinv[22] = l * (1.0 / d);
     {
       jr::v2d s = L[5] * jr::load2(L + 6) + L[14] * jr::load2(L + 15) + L[22] * jr::load2(L + 23) + L[29] * jr::load2(L + 30) + L[39] * jr::load2(L + 40) + L[48] * jr::load2(L + 49) + L[56] * jr::load2(L + 57) + L[63] * jr::load2(L + 64);
       s += L[73] * jr::load2(L + 74) + L[82] * jr::load2(L + 83) + L[90] * jr::load2(L + 91) + L[97] * jr::load2(L + 98) + L[107] * jr::load2(L + 108) + L[116] * jr::load2(L + 117) + L[124] * jr::load2(L + 125) + L[131] * jr::load2(L + 132);
@@ -891,8 +943,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
     sd += L[139] * L[139] + L[146] * L[146] + L[153] * L[153] + L[160] * L[160] + L[167] * L[167] + L[173] * L[173] + L[178] * L[178];
     const double d = M[56] - sd;
     if (!(d > kPivotTolerance * M[56])) return not_positive_definite(23, d);
-    L[182] = std::sqrt(d);
-    Dinv[23] = 1.0 / L[182];
+    const double l = std::sqrt(d);
+    L[182] = l;
+    Dinv[23] = l * (1.0 / d);
     {
       jr::v2d s = L[6] * jr::load2(L + 7) + L[15] * jr::load2(L + 16) + L[23] * jr::load2(L + 24) + L[30] * jr::load2(L + 31) + L[40] * jr::load2(L + 41) + L[49] * jr::load2(L + 50) + L[57] * jr::load2(L + 58) + L[64] * jr::load2(L + 65);
       s += L[74] * jr::load2(L + 75) + L[83] * jr::load2(L + 84) + L[91] * jr::load2(L + 92) + L[98] * jr::load2(L + 99) + L[108] * jr::load2(L + 109) + L[117] * jr::load2(L + 118) + L[125] * jr::load2(L + 126) + L[132] * jr::load2(L + 133);
@@ -914,8 +967,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
     sd += L[140] * L[140] + L[147] * L[147] + L[154] * L[154] + L[161] * L[161] + L[168] * L[168] + L[174] * L[174] + L[179] * L[179] + L[183] * L[183];
     const double d = M[84] - sd;
     if (!(d > kPivotTolerance * M[84])) return not_positive_definite(24, d);
-    L[186] = std::sqrt(d);
-    Dinv[24] = 1.0 / L[186];
+    const double l = std::sqrt(d);
+    L[186] = l;
+    Dinv[24] = l * (1.0 / d);
     {
       jr::v2d s = L[7] * jr::load2(L + 8) + L[16] * jr::load2(L + 17) + L[24] * jr::load2(L + 25) + L[31] * jr::load2(L + 32) + L[41] * jr::load2(L + 42) + L[50] * jr::load2(L + 51) + L[58] * jr::load2(L + 59) + L[65] * jr::load2(L + 66);
       s += L[75] * jr::load2(L + 76) + L[84] * jr::load2(L + 85) + L[92] * jr::load2(L + 93) + L[99] * jr::load2(L + 100) + L[109] * jr::load2(L + 110) + L[118] * jr::load2(L + 119) + L[126] * jr::load2(L + 127) + L[133] * jr::load2(L + 134);
@@ -931,8 +985,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
     sd += L[187] * L[187];
     const double d = M[112] - sd;
     if (!(d > kPivotTolerance * M[112])) return not_positive_definite(25, d);
-    L[189] = std::sqrt(d);
-    Dinv[25] = 1.0 / L[189];
+    const double l = std::sqrt(d);
+    L[189] = l;
+    Dinv[25] = l * (1.0 / d);
     {
       double s = L[8] * L[9] + L[17] * L[18] + L[25] * L[26] + L[32] * L[33] + L[42] * L[43] + L[51] * L[52] + L[59] * L[60] + L[66] * L[67];
       s += L[76] * L[77] + L[85] * L[86] + L[93] * L[94] + L[100] * L[101] + L[110] * L[111] + L[119] * L[120] + L[127] * L[128] + L[134] * L[135];
@@ -950,8 +1005,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
     sd += L[188] * L[188] + L[190] * L[190];
     const double d = M[140] - sd;
     if (!(d > kPivotTolerance * M[140])) return not_positive_definite(26, d);
-    L[191] = std::sqrt(d);
-    Dinv[26] = 1.0 / L[191];
+    const double l = std::sqrt(d);
+    L[191] = l;
+    Dinv[26] = l * (1.0 / d);
   }
   return 0;
 }

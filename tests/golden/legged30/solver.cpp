@@ -178,7 +178,7 @@ int not_positive_definite(std::int32_t dof_lem, double pivot) {
               pivot);
 }
 
-// Each step below stays its own function (3125 additions and multiplications in all:
+// Each step below stays its own function (3155 additions and multiplications in all:
 // one function that large compiles to slower code), and the long steps
 // pass values from block to block through memory (jr::compiler_fence).
 #if defined(__GNUC__) || defined(__clang__)
@@ -260,14 +260,15 @@ void scatter_qdd(const double* __restrict z, double* __restrict qdd) {
 // ---- Step 1: factor M = L L^T in place (packed), eq. (25)-(26). ----
 // Lemma 2: no fill-in; column j reads only rows of its descendants
 // and writes only rows of its ancestors. Dinv[j] = 1 / pivot j.
-// Ops: 995 add, 1210 mul, 30 div, 30 sqrt.
+// Ops: 995 add, 1240 mul, 30 div, 30 sqrt.
 JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   // column 0: joint 'neck' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
     const double d = L[0];
     if (!(d > kPivotTolerance * L[0])) return not_positive_definite(0, d);
-    L[0] = std::sqrt(d);
-    Dinv[0] = 1.0 / L[0];
+    const double l = std::sqrt(d);
+    L[0] = l;
+    Dinv[0] = l * (1.0 / d);
     jr::store2(L + 1, jr::load2(L + 1) * Dinv[0]);
     jr::store2(L + 3, jr::load2(L + 3) * Dinv[0]);
     jr::store2(L + 5, jr::load2(L + 5) * Dinv[0]);
@@ -278,8 +279,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[10] - L[1] * L[1];
     if (!(d > kPivotTolerance * L[10])) return not_positive_definite(1, d);
-    L[10] = std::sqrt(d);
-    Dinv[1] = 1.0 / L[10];
+    const double l = std::sqrt(d);
+    L[10] = l;
+    Dinv[1] = l * (1.0 / d);
     jr::store2(L + 11, (jr::load2(L + 11) - L[1] * jr::load2(L + 2)) * Dinv[1]);
     jr::store2(L + 13, (jr::load2(L + 13) - L[1] * jr::load2(L + 4)) * Dinv[1]);
     jr::store2(L + 15, (jr::load2(L + 15) - L[1] * jr::load2(L + 6)) * Dinv[1]);
@@ -289,8 +291,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[19] - (L[2] * L[2] + L[11] * L[11]);
     if (!(d > kPivotTolerance * L[19])) return not_positive_definite(2, d);
-    L[19] = std::sqrt(d);
-    Dinv[2] = 1.0 / L[19];
+    const double l = std::sqrt(d);
+    L[19] = l;
+    Dinv[2] = l * (1.0 / d);
     jr::store2(L + 20, (jr::load2(L + 20) - (L[2] * jr::load2(L + 3) + L[11] * jr::load2(L + 12))) * Dinv[2]);
     jr::store2(L + 22, (jr::load2(L + 22) - (L[2] * jr::load2(L + 5) + L[11] * jr::load2(L + 14))) * Dinv[2]);
     jr::store2(L + 24, (jr::load2(L + 24) - (L[2] * jr::load2(L + 7) + L[11] * jr::load2(L + 16))) * Dinv[2]);
@@ -300,8 +303,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[27];
     if (!(d > kPivotTolerance * L[27])) return not_positive_definite(3, d);
-    L[27] = std::sqrt(d);
-    Dinv[3] = 1.0 / L[27];
+    const double l = std::sqrt(d);
+    L[27] = l;
+    Dinv[3] = l * (1.0 / d);
     jr::store2(L + 28, jr::load2(L + 28) * Dinv[3]);
     jr::store2(L + 30, jr::load2(L + 30) * Dinv[3]);
     jr::store2(L + 32, jr::load2(L + 32) * Dinv[3]);
@@ -312,8 +316,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[38] - L[28] * L[28];
     if (!(d > kPivotTolerance * L[38])) return not_positive_definite(4, d);
-    L[38] = std::sqrt(d);
-    Dinv[4] = 1.0 / L[38];
+    const double l = std::sqrt(d);
+    L[38] = l;
+    Dinv[4] = l * (1.0 / d);
     jr::store2(L + 39, (jr::load2(L + 39) - L[28] * jr::load2(L + 29)) * Dinv[4]);
     jr::store2(L + 41, (jr::load2(L + 41) - L[28] * jr::load2(L + 31)) * Dinv[4]);
     jr::store2(L + 43, (jr::load2(L + 43) - L[28] * jr::load2(L + 33)) * Dinv[4]);
@@ -324,31 +329,34 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[48] - (L[29] * L[29] + L[39] * L[39]);
     if (!(d > kPivotTolerance * L[48])) return not_positive_definite(5, d);
-    L[48] = std::sqrt(d);
-    Dinv[5] = 1.0 / L[48];
+    const double l = std::sqrt(d);
+    L[48] = l;
+    Dinv[5] = l * (1.0 / d);
     jr::store2(L + 49, (jr::load2(L + 49) - (L[29] * jr::load2(L + 30) + L[39] * jr::load2(L + 40))) * Dinv[5]);
     jr::store2(L + 51, (jr::load2(L + 51) - (L[29] * jr::load2(L + 32) + L[39] * jr::load2(L + 42))) * Dinv[5]);
     jr::store2(L + 53, (jr::load2(L + 53) - (L[29] * jr::load2(L + 34) + L[39] * jr::load2(L + 44))) * Dinv[5]);
     jr::store2(L + 55, (jr::load2(L + 55) - (L[29] * jr::load2(L + 36) + L[39] * jr::load2(L + 46))) * Dinv[5]);
   }
+  jr::compiler_fence();
   // column 6: joint 'left_shoulder' (coordinate 3 of 3); 3 descendant(s), 7 ancestor row(s)
   {
     const double d = L[57] - (L[30] * L[30] + L[40] * L[40] + L[49] * L[49]);
     if (!(d > kPivotTolerance * L[57])) return not_positive_definite(6, d);
-    L[57] = std::sqrt(d);
-    Dinv[6] = 1.0 / L[57];
+    const double l = std::sqrt(d);
+    L[57] = l;
+    Dinv[6] = l * (1.0 / d);
     jr::store2(L + 58, (jr::load2(L + 58) - (L[30] * jr::load2(L + 31) + L[40] * jr::load2(L + 41) + L[49] * jr::load2(L + 50))) * Dinv[6]);
     jr::store2(L + 60, (jr::load2(L + 60) - (L[30] * jr::load2(L + 33) + L[40] * jr::load2(L + 43) + L[49] * jr::load2(L + 52))) * Dinv[6]);
     jr::store2(L + 62, (jr::load2(L + 62) - (L[30] * jr::load2(L + 35) + L[40] * jr::load2(L + 45) + L[49] * jr::load2(L + 54))) * Dinv[6]);
     L[64] = (L[64] - (L[30] * L[37] + L[40] * L[47] + L[49] * L[56])) * Dinv[6];
   }
-  jr::compiler_fence();
   // column 7: joint 'right_elbow'; 0 descendant(s), 10 ancestor row(s)
   {
     const double d = L[65];
     if (!(d > kPivotTolerance * L[65])) return not_positive_definite(7, d);
-    L[65] = std::sqrt(d);
-    Dinv[7] = 1.0 / L[65];
+    const double l = std::sqrt(d);
+    L[65] = l;
+    Dinv[7] = l * (1.0 / d);
     jr::store2(L + 66, jr::load2(L + 66) * Dinv[7]);
     jr::store2(L + 68, jr::load2(L + 68) * Dinv[7]);
     jr::store2(L + 70, jr::load2(L + 70) * Dinv[7]);
@@ -359,8 +367,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[76] - L[66] * L[66];
     if (!(d > kPivotTolerance * L[76])) return not_positive_definite(8, d);
-    L[76] = std::sqrt(d);
-    Dinv[8] = 1.0 / L[76];
+    const double l = std::sqrt(d);
+    L[76] = l;
+    Dinv[8] = l * (1.0 / d);
     jr::store2(L + 77, (jr::load2(L + 77) - L[66] * jr::load2(L + 67)) * Dinv[8]);
     jr::store2(L + 79, (jr::load2(L + 79) - L[66] * jr::load2(L + 69)) * Dinv[8]);
     jr::store2(L + 81, (jr::load2(L + 81) - L[66] * jr::load2(L + 71)) * Dinv[8]);
@@ -371,8 +380,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[86] - (L[67] * L[67] + L[77] * L[77]);
     if (!(d > kPivotTolerance * L[86])) return not_positive_definite(9, d);
-    L[86] = std::sqrt(d);
-    Dinv[9] = 1.0 / L[86];
+    const double l = std::sqrt(d);
+    L[86] = l;
+    Dinv[9] = l * (1.0 / d);
     jr::store2(L + 87, (jr::load2(L + 87) - (L[67] * jr::load2(L + 68) + L[77] * jr::load2(L + 78))) * Dinv[9]);
     jr::store2(L + 89, (jr::load2(L + 89) - (L[67] * jr::load2(L + 70) + L[77] * jr::load2(L + 80))) * Dinv[9]);
     jr::store2(L + 91, (jr::load2(L + 91) - (L[67] * jr::load2(L + 72) + L[77] * jr::load2(L + 82))) * Dinv[9]);
@@ -382,21 +392,24 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[95] - (L[68] * L[68] + L[78] * L[78] + L[87] * L[87]);
     if (!(d > kPivotTolerance * L[95])) return not_positive_definite(10, d);
-    L[95] = std::sqrt(d);
-    Dinv[10] = 1.0 / L[95];
+    const double l = std::sqrt(d);
+    L[95] = l;
+    Dinv[10] = l * (1.0 / d);
     jr::store2(L + 96, (jr::load2(L + 96) - (L[68] * jr::load2(L + 69) + L[78] * jr::load2(L + 79) + L[87] * jr::load2(L + 88))) * Dinv[10]);
     jr::store2(L + 98, (jr::load2(L + 98) - (L[68] * jr::load2(L + 71) + L[78] * jr::load2(L + 81) + L[87] * jr::load2(L + 90))) * Dinv[10]);
     jr::store2(L + 100, (jr::load2(L + 100) - (L[68] * jr::load2(L + 73) + L[78] * jr::load2(L + 83) + L[87] * jr::load2(L + 92))) * Dinv[10]);
     L[102] = (L[102] - (L[68] * L[75] + L[78] * L[85] + L[87] * L[94])) * Dinv[10];
   }
+  jr::compiler_fence();
   // column 11: joint 'waist_yaw'; 11 descendant(s), 6 ancestor row(s)
   {
     double sd = L[3] * L[3] + L[12] * L[12] + L[20] * L[20] + L[31] * L[31] + L[41] * L[41] + L[50] * L[50] + L[58] * L[58] + L[69] * L[69];
     sd += L[79] * L[79] + L[88] * L[88] + L[96] * L[96];
     const double d = L[103] - sd;
     if (!(d > kPivotTolerance * L[103])) return not_positive_definite(11, d);
-    L[103] = std::sqrt(d);
-    Dinv[11] = 1.0 / L[103];
+    const double l = std::sqrt(d);
+    L[103] = l;
+    Dinv[11] = l * (1.0 / d);
     {
       jr::v2d s = L[3] * jr::load2(L + 4) + L[12] * jr::load2(L + 13) + L[20] * jr::load2(L + 21) + L[31] * jr::load2(L + 32) + L[41] * jr::load2(L + 42) + L[50] * jr::load2(L + 51) + L[58] * jr::load2(L + 59) + L[69] * jr::load2(L + 70);
       s += L[79] * jr::load2(L + 80) + L[88] * jr::load2(L + 89) + L[96] * jr::load2(L + 97);
@@ -413,13 +426,13 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
       jr::store2(L + 108, (jr::load2(L + 108) - s) * Dinv[11]);
     }
   }
-  jr::compiler_fence();
   // column 12: joint 'left_ankle_roll'; 0 descendant(s), 11 ancestor row(s)
   {
     const double d = L[110];
     if (!(d > kPivotTolerance * L[110])) return not_positive_definite(12, d);
-    L[110] = std::sqrt(d);
-    Dinv[12] = 1.0 / L[110];
+    const double l = std::sqrt(d);
+    L[110] = l;
+    Dinv[12] = l * (1.0 / d);
     jr::store2(L + 111, jr::load2(L + 111) * Dinv[12]);
     jr::store2(L + 113, jr::load2(L + 113) * Dinv[12]);
     jr::store2(L + 115, jr::load2(L + 115) * Dinv[12]);
@@ -431,20 +444,23 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[122] - L[111] * L[111];
     if (!(d > kPivotTolerance * L[122])) return not_positive_definite(13, d);
-    L[122] = std::sqrt(d);
-    Dinv[13] = 1.0 / L[122];
+    const double l = std::sqrt(d);
+    L[122] = l;
+    Dinv[13] = l * (1.0 / d);
     jr::store2(L + 123, (jr::load2(L + 123) - L[111] * jr::load2(L + 112)) * Dinv[13]);
     jr::store2(L + 125, (jr::load2(L + 125) - L[111] * jr::load2(L + 114)) * Dinv[13]);
     jr::store2(L + 127, (jr::load2(L + 127) - L[111] * jr::load2(L + 116)) * Dinv[13]);
     jr::store2(L + 129, (jr::load2(L + 129) - L[111] * jr::load2(L + 118)) * Dinv[13]);
     jr::store2(L + 131, (jr::load2(L + 131) - L[111] * jr::load2(L + 120)) * Dinv[13]);
   }
+  jr::compiler_fence();
   // column 14: joint 'left_knee'; 2 descendant(s), 9 ancestor row(s)
   {
     const double d = L[133] - (L[112] * L[112] + L[123] * L[123]);
     if (!(d > kPivotTolerance * L[133])) return not_positive_definite(14, d);
-    L[133] = std::sqrt(d);
-    Dinv[14] = 1.0 / L[133];
+    const double l = std::sqrt(d);
+    L[133] = l;
+    Dinv[14] = l * (1.0 / d);
     jr::store2(L + 134, (jr::load2(L + 134) - (L[112] * jr::load2(L + 113) + L[123] * jr::load2(L + 124))) * Dinv[14]);
     jr::store2(L + 136, (jr::load2(L + 136) - (L[112] * jr::load2(L + 115) + L[123] * jr::load2(L + 126))) * Dinv[14]);
     jr::store2(L + 138, (jr::load2(L + 138) - (L[112] * jr::load2(L + 117) + L[123] * jr::load2(L + 128))) * Dinv[14]);
@@ -455,8 +471,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[143] - (L[113] * L[113] + L[124] * L[124] + L[134] * L[134]);
     if (!(d > kPivotTolerance * L[143])) return not_positive_definite(15, d);
-    L[143] = std::sqrt(d);
-    Dinv[15] = 1.0 / L[143];
+    const double l = std::sqrt(d);
+    L[143] = l;
+    Dinv[15] = l * (1.0 / d);
     jr::store2(L + 144, (jr::load2(L + 144) - (L[113] * jr::load2(L + 114) + L[124] * jr::load2(L + 125) + L[134] * jr::load2(L + 135))) * Dinv[15]);
     jr::store2(L + 146, (jr::load2(L + 146) - (L[113] * jr::load2(L + 116) + L[124] * jr::load2(L + 127) + L[134] * jr::load2(L + 137))) * Dinv[15]);
     jr::store2(L + 148, (jr::load2(L + 148) - (L[113] * jr::load2(L + 118) + L[124] * jr::load2(L + 129) + L[134] * jr::load2(L + 139))) * Dinv[15]);
@@ -466,8 +483,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[152] - (L[114] * L[114] + L[125] * L[125] + L[135] * L[135] + L[144] * L[144]);
     if (!(d > kPivotTolerance * L[152])) return not_positive_definite(16, d);
-    L[152] = std::sqrt(d);
-    Dinv[16] = 1.0 / L[152];
+    const double l = std::sqrt(d);
+    L[152] = l;
+    Dinv[16] = l * (1.0 / d);
     jr::store2(L + 153, (jr::load2(L + 153) - (L[114] * jr::load2(L + 115) + L[125] * jr::load2(L + 126) + L[135] * jr::load2(L + 136) + L[144] * jr::load2(L + 145))) * Dinv[16]);
     jr::store2(L + 155, (jr::load2(L + 155) - (L[114] * jr::load2(L + 117) + L[125] * jr::load2(L + 128) + L[135] * jr::load2(L + 138) + L[144] * jr::load2(L + 147))) * Dinv[16]);
     jr::store2(L + 157, (jr::load2(L + 157) - (L[114] * jr::load2(L + 119) + L[125] * jr::load2(L + 130) + L[135] * jr::load2(L + 140) + L[144] * jr::load2(L + 149))) * Dinv[16]);
@@ -478,8 +496,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[160] - (L[115] * L[115] + L[126] * L[126] + L[136] * L[136] + L[145] * L[145] + L[153] * L[153]);
     if (!(d > kPivotTolerance * L[160])) return not_positive_definite(17, d);
-    L[160] = std::sqrt(d);
-    Dinv[17] = 1.0 / L[160];
+    const double l = std::sqrt(d);
+    L[160] = l;
+    Dinv[17] = l * (1.0 / d);
     jr::store2(L + 161, (jr::load2(L + 161) - (L[115] * jr::load2(L + 116) + L[126] * jr::load2(L + 127) + L[136] * jr::load2(L + 137) + L[145] * jr::load2(L + 146) + L[153] * jr::load2(L + 154))) * Dinv[17]);
     jr::store2(L + 163, (jr::load2(L + 163) - (L[115] * jr::load2(L + 118) + L[126] * jr::load2(L + 129) + L[136] * jr::load2(L + 139) + L[145] * jr::load2(L + 148) + L[153] * jr::load2(L + 156))) * Dinv[17]);
     jr::store2(L + 165, (jr::load2(L + 165) - (L[115] * jr::load2(L + 120) + L[126] * jr::load2(L + 131) + L[136] * jr::load2(L + 141) + L[145] * jr::load2(L + 150) + L[153] * jr::load2(L + 158))) * Dinv[17]);
@@ -488,8 +507,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[167];
     if (!(d > kPivotTolerance * L[167])) return not_positive_definite(18, d);
-    L[167] = std::sqrt(d);
-    Dinv[18] = 1.0 / L[167];
+    const double l = std::sqrt(d);
+    L[167] = l;
+    Dinv[18] = l * (1.0 / d);
     jr::store2(L + 168, jr::load2(L + 168) * Dinv[18]);
     jr::store2(L + 170, jr::load2(L + 170) * Dinv[18]);
     jr::store2(L + 172, jr::load2(L + 172) * Dinv[18]);
@@ -501,8 +521,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[179] - L[168] * L[168];
     if (!(d > kPivotTolerance * L[179])) return not_positive_definite(19, d);
-    L[179] = std::sqrt(d);
-    Dinv[19] = 1.0 / L[179];
+    const double l = std::sqrt(d);
+    L[179] = l;
+    Dinv[19] = l * (1.0 / d);
     jr::store2(L + 180, (jr::load2(L + 180) - L[168] * jr::load2(L + 169)) * Dinv[19]);
     jr::store2(L + 182, (jr::load2(L + 182) - L[168] * jr::load2(L + 171)) * Dinv[19]);
     jr::store2(L + 184, (jr::load2(L + 184) - L[168] * jr::load2(L + 173)) * Dinv[19]);
@@ -513,32 +534,35 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[190] - (L[169] * L[169] + L[180] * L[180]);
     if (!(d > kPivotTolerance * L[190])) return not_positive_definite(20, d);
-    L[190] = std::sqrt(d);
-    Dinv[20] = 1.0 / L[190];
+    const double l = std::sqrt(d);
+    L[190] = l;
+    Dinv[20] = l * (1.0 / d);
     jr::store2(L + 191, (jr::load2(L + 191) - (L[169] * jr::load2(L + 170) + L[180] * jr::load2(L + 181))) * Dinv[20]);
     jr::store2(L + 193, (jr::load2(L + 193) - (L[169] * jr::load2(L + 172) + L[180] * jr::load2(L + 183))) * Dinv[20]);
     jr::store2(L + 195, (jr::load2(L + 195) - (L[169] * jr::load2(L + 174) + L[180] * jr::load2(L + 185))) * Dinv[20]);
     jr::store2(L + 197, (jr::load2(L + 197) - (L[169] * jr::load2(L + 176) + L[180] * jr::load2(L + 187))) * Dinv[20]);
     L[199] = (L[199] - (L[169] * L[178] + L[180] * L[189])) * Dinv[20];
   }
+  jr::compiler_fence();
   // column 21: joint 'right_hip' (coordinate 1 of 3); 3 descendant(s), 8 ancestor row(s)
   {
     const double d = L[200] - (L[170] * L[170] + L[181] * L[181] + L[191] * L[191]);
     if (!(d > kPivotTolerance * L[200])) return not_positive_definite(21, d);
-    L[200] = std::sqrt(d);
-    Dinv[21] = 1.0 / L[200];
+    const double l = std::sqrt(d);
+    L[200] = l;
+    Dinv[21] = l * (1.0 / d);
     jr::store2(L + 201, (jr::load2(L + 201) - (L[170] * jr::load2(L + 171) + L[181] * jr::load2(L + 182) + L[191] * jr::load2(L + 192))) * Dinv[21]);
     jr::store2(L + 203, (jr::load2(L + 203) - (L[170] * jr::load2(L + 173) + L[181] * jr::load2(L + 184) + L[191] * jr::load2(L + 194))) * Dinv[21]);
     jr::store2(L + 205, (jr::load2(L + 205) - (L[170] * jr::load2(L + 175) + L[181] * jr::load2(L + 186) + L[191] * jr::load2(L + 196))) * Dinv[21]);
     jr::store2(L + 207, (jr::load2(L + 207) - (L[170] * jr::load2(L + 177) + L[181] * jr::load2(L + 188) + L[191] * jr::load2(L + 198))) * Dinv[21]);
   }
-  jr::compiler_fence();
   // column 22: joint 'right_hip' (coordinate 2 of 3); 4 descendant(s), 7 ancestor row(s)
   {
     const double d = L[209] - (L[171] * L[171] + L[182] * L[182] + L[192] * L[192] + L[201] * L[201]);
     if (!(d > kPivotTolerance * L[209])) return not_positive_definite(22, d);
-    L[209] = std::sqrt(d);
-    Dinv[22] = 1.0 / L[209];
+    const double l = std::sqrt(d);
+    L[209] = l;
+    Dinv[22] = l * (1.0 / d);
     jr::store2(L + 210, (jr::load2(L + 210) - (L[171] * jr::load2(L + 172) + L[182] * jr::load2(L + 183) + L[192] * jr::load2(L + 193) + L[201] * jr::load2(L + 202))) * Dinv[22]);
     jr::store2(L + 212, (jr::load2(L + 212) - (L[171] * jr::load2(L + 174) + L[182] * jr::load2(L + 185) + L[192] * jr::load2(L + 195) + L[201] * jr::load2(L + 204))) * Dinv[22]);
     jr::store2(L + 214, (jr::load2(L + 214) - (L[171] * jr::load2(L + 176) + L[182] * jr::load2(L + 187) + L[192] * jr::load2(L + 197) + L[201] * jr::load2(L + 206))) * Dinv[22]);
@@ -548,12 +572,14 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double d = L[217] - (L[172] * L[172] + L[183] * L[183] + L[193] * L[193] + L[202] * L[202] + L[210] * L[210]);
     if (!(d > kPivotTolerance * L[217])) return not_positive_definite(23, d);
-    L[217] = std::sqrt(d);
-    Dinv[23] = 1.0 / L[217];
+    const double l = std::sqrt(d);
+    L[217] = l;
+    Dinv[23] = l * (1.0 / d);
     jr::store2(L + 218, (jr::load2(L + 218) - (L[172] * jr::load2(L + 173) + L[183] * jr::load2(L + 184) + L[193] * jr::load2(L + 194) + L[202] * jr::load2(L + 203) + L[210] * jr::load2(L + 211))) * Dinv[23]);
     jr::store2(L + 220, (jr::load2(L + 220) - (L[172] * jr::load2(L + 175) + L[183] * jr::load2(L + 186) + L[193] * jr::load2(L + 196) + L[202] * jr::load2(L + 205) + L[210] * jr::load2(L + 213))) * Dinv[23]);
     jr::store2(L + 222, (jr::load2(L + 222) - (L[172] * jr::load2(L + 177) + L[183] * jr::load2(L + 188) + L[193] * jr::load2(L + 198) + L[202] * jr::load2(L + 207) + L[210] * jr::load2(L + 215))) * Dinv[23]);
   }
+  jr::compiler_fence();
   // column 24: joint 'floating_base' (coordinate 1 of 6); 24 descendant(s), 5 ancestor row(s)
   {
     double sd = L[4] * L[4] + L[13] * L[13] + L[21] * L[21] + L[32] * L[32] + L[42] * L[42] + L[51] * L[51] + L[59] * L[59] + L[70] * L[70];
@@ -561,8 +587,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
     sd += L[154] * L[154] + L[161] * L[161] + L[173] * L[173] + L[184] * L[184] + L[194] * L[194] + L[203] * L[203] + L[211] * L[211] + L[218] * L[218];
     const double d = L[224] - sd;
     if (!(d > kPivotTolerance * L[224])) return not_positive_definite(24, d);
-    L[224] = std::sqrt(d);
-    Dinv[24] = 1.0 / L[224];
+    const double l = std::sqrt(d);
+    L[224] = l;
+    Dinv[24] = l * (1.0 / d);
     {
       jr::v2d s = L[4] * jr::load2(L + 5) + L[13] * jr::load2(L + 14) + L[21] * jr::load2(L + 22) + L[32] * jr::load2(L + 33) + L[42] * jr::load2(L + 43) + L[51] * jr::load2(L + 52) + L[59] * jr::load2(L + 60) + L[70] * jr::load2(L + 71);
       s += L[80] * jr::load2(L + 81) + L[89] * jr::load2(L + 90) + L[97] * jr::load2(L + 98) + L[104] * jr::load2(L + 105) + L[116] * jr::load2(L + 117) + L[127] * jr::load2(L + 128) + L[137] * jr::load2(L + 138) + L[146] * jr::load2(L + 147);
@@ -591,8 +618,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
     sd += L[225] * L[225];
     const double d = L[230] - sd;
     if (!(d > kPivotTolerance * L[230])) return not_positive_definite(25, d);
-    L[230] = std::sqrt(d);
-    Dinv[25] = 1.0 / L[230];
+    const double l = std::sqrt(d);
+    L[230] = l;
+    Dinv[25] = l * (1.0 / d);
     {
       jr::v2d s = L[5] * jr::load2(L + 6) + L[14] * jr::load2(L + 15) + L[22] * jr::load2(L + 23) + L[33] * jr::load2(L + 34) + L[43] * jr::load2(L + 44) + L[52] * jr::load2(L + 53) + L[60] * jr::load2(L + 61) + L[71] * jr::load2(L + 72);
       s += L[81] * jr::load2(L + 82) + L[90] * jr::load2(L + 91) + L[98] * jr::load2(L + 99) + L[105] * jr::load2(L + 106) + L[117] * jr::load2(L + 118) + L[128] * jr::load2(L + 129) + L[138] * jr::load2(L + 139) + L[147] * jr::load2(L + 148);
@@ -617,8 +645,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
     sd += L[226] * L[226] + L[231] * L[231];
     const double d = L[235] - sd;
     if (!(d > kPivotTolerance * L[235])) return not_positive_definite(26, d);
-    L[235] = std::sqrt(d);
-    Dinv[26] = 1.0 / L[235];
+    const double l = std::sqrt(d);
+    L[235] = l;
+    Dinv[26] = l * (1.0 / d);
     {
       jr::v2d s = L[6] * jr::load2(L + 7) + L[15] * jr::load2(L + 16) + L[23] * jr::load2(L + 24) + L[34] * jr::load2(L + 35) + L[44] * jr::load2(L + 45) + L[53] * jr::load2(L + 54) + L[61] * jr::load2(L + 62) + L[72] * jr::load2(L + 73);
       s += L[82] * jr::load2(L + 83) + L[91] * jr::load2(L + 92) + L[99] * jr::load2(L + 100) + L[106] * jr::load2(L + 107) + L[118] * jr::load2(L + 119) + L[129] * jr::load2(L + 130) + L[139] * jr::load2(L + 140) + L[148] * jr::load2(L + 149);
@@ -643,8 +672,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
     sd += L[227] * L[227] + L[232] * L[232] + L[236] * L[236];
     const double d = L[239] - sd;
     if (!(d > kPivotTolerance * L[239])) return not_positive_definite(27, d);
-    L[239] = std::sqrt(d);
-    Dinv[27] = 1.0 / L[239];
+    const double l = std::sqrt(d);
+    L[239] = l;
+    Dinv[27] = l * (1.0 / d);
     {
       jr::v2d s = L[7] * jr::load2(L + 8) + L[16] * jr::load2(L + 17) + L[24] * jr::load2(L + 25) + L[35] * jr::load2(L + 36) + L[45] * jr::load2(L + 46) + L[54] * jr::load2(L + 55) + L[62] * jr::load2(L + 63) + L[73] * jr::load2(L + 74);
       s += L[83] * jr::load2(L + 84) + L[92] * jr::load2(L + 93) + L[100] * jr::load2(L + 101) + L[107] * jr::load2(L + 108) + L[119] * jr::load2(L + 120) + L[130] * jr::load2(L + 131) + L[140] * jr::load2(L + 141) + L[149] * jr::load2(L + 150);
@@ -661,8 +691,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
     sd += L[228] * L[228] + L[233] * L[233] + L[237] * L[237] + L[240] * L[240];
     const double d = L[242] - sd;
     if (!(d > kPivotTolerance * L[242])) return not_positive_definite(28, d);
-    L[242] = std::sqrt(d);
-    Dinv[28] = 1.0 / L[242];
+    const double l = std::sqrt(d);
+    L[242] = l;
+    Dinv[28] = l * (1.0 / d);
     {
       double s = L[8] * L[9] + L[17] * L[18] + L[25] * L[26] + L[36] * L[37] + L[46] * L[47] + L[55] * L[56] + L[63] * L[64] + L[74] * L[75];
       s += L[84] * L[85] + L[93] * L[94] + L[101] * L[102] + L[108] * L[109] + L[120] * L[121] + L[131] * L[132] + L[141] * L[142] + L[150] * L[151];
@@ -680,8 +711,9 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
     sd += L[229] * L[229] + L[234] * L[234] + L[238] * L[238] + L[241] * L[241] + L[243] * L[243];
     const double d = L[244] - sd;
     if (!(d > kPivotTolerance * L[244])) return not_positive_definite(29, d);
-    L[244] = std::sqrt(d);
-    Dinv[29] = 1.0 / L[244];
+    const double l = std::sqrt(d);
+    L[244] = l;
+    Dinv[29] = l * (1.0 / d);
   }
   return 0;
 }
@@ -695,8 +727,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[217];
     if (!(d > kPivotTolerance * M[217])) return not_positive_definite(0, d);
-    L[0] = std::sqrt(d);
-    Dinv[0] = 1.0 / L[0];
+    const double l = std::sqrt(d);
+    L[0] = l;
+    Dinv[0] = l * (1.0 / d);
     jr::store2(L + 1, jr::set2(M[218], M[219]) * Dinv[0]);
     jr::store2(L + 3, jr::set2(M[216], M[210]) * Dinv[0]);
     jr::store2(L + 5, jr::set2(M[211], M[212]) * Dinv[0]);
@@ -707,8 +740,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[248] - L[1] * L[1];
     if (!(d > kPivotTolerance * M[248])) return not_positive_definite(1, d);
-    L[10] = std::sqrt(d);
-    Dinv[1] = 1.0 / L[10];
+    const double l = std::sqrt(d);
+    L[10] = l;
+    Dinv[1] = l * (1.0 / d);
     jr::store2(L + 11, (jr::set2(M[249], M[246]) - L[1] * jr::load2(L + 2)) * Dinv[1]);
     jr::store2(L + 13, (jr::set2(M[240], M[241]) - L[1] * jr::load2(L + 4)) * Dinv[1]);
     jr::store2(L + 15, (jr::set2(M[242], M[243]) - L[1] * jr::load2(L + 6)) * Dinv[1]);
@@ -718,8 +752,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[279] - (L[2] * L[2] + L[11] * L[11]);
     if (!(d > kPivotTolerance * M[279])) return not_positive_definite(2, d);
-    L[19] = std::sqrt(d);
-    Dinv[2] = 1.0 / L[19];
+    const double l = std::sqrt(d);
+    L[19] = l;
+    Dinv[2] = l * (1.0 / d);
     jr::store2(L + 20, (jr::set2(M[276], M[270]) - (L[2] * jr::load2(L + 3) + L[11] * jr::load2(L + 12))) * Dinv[2]);
     jr::store2(L + 22, (jr::set2(M[271], M[272]) - (L[2] * jr::load2(L + 5) + L[11] * jr::load2(L + 14))) * Dinv[2]);
     jr::store2(L + 24, (jr::set2(M[273], M[274]) - (L[2] * jr::load2(L + 7) + L[11] * jr::load2(L + 16))) * Dinv[2]);
@@ -729,8 +764,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[403];
     if (!(d > kPivotTolerance * M[403])) return not_positive_definite(3, d);
-    L[27] = std::sqrt(d);
-    Dinv[3] = 1.0 / L[27];
+    const double l = std::sqrt(d);
+    L[27] = l;
+    Dinv[3] = l * (1.0 / d);
     jr::store2(L + 28, jr::set2(M[400], M[401]) * Dinv[3]);
     jr::store2(L + 30, jr::set2(M[402], M[396]) * Dinv[3]);
     jr::store2(L + 32, jr::set2(M[390], M[391]) * Dinv[3]);
@@ -741,8 +777,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[310] - L[28] * L[28];
     if (!(d > kPivotTolerance * M[310])) return not_positive_definite(4, d);
-    L[38] = std::sqrt(d);
-    Dinv[4] = 1.0 / L[38];
+    const double l = std::sqrt(d);
+    L[38] = l;
+    Dinv[4] = l * (1.0 / d);
     jr::store2(L + 39, (jr::set2(M[311], M[312]) - L[28] * jr::load2(L + 29)) * Dinv[4]);
     jr::store2(L + 41, (jr::set2(M[306], M[300]) - L[28] * jr::load2(L + 31)) * Dinv[4]);
     jr::store2(L + 43, (jr::set2(M[301], M[302]) - L[28] * jr::load2(L + 33)) * Dinv[4]);
@@ -753,8 +790,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[341] - (L[29] * L[29] + L[39] * L[39]);
     if (!(d > kPivotTolerance * M[341])) return not_positive_definite(5, d);
-    L[48] = std::sqrt(d);
-    Dinv[5] = 1.0 / L[48];
+    const double l = std::sqrt(d);
+    L[48] = l;
+    Dinv[5] = l * (1.0 / d);
     jr::store2(L + 49, (jr::set2(M[342], M[336]) - (L[29] * jr::load2(L + 30) + L[39] * jr::load2(L + 40))) * Dinv[5]);
     jr::store2(L + 51, (jr::set2(M[330], M[331]) - (L[29] * jr::load2(L + 32) + L[39] * jr::load2(L + 42))) * Dinv[5]);
     jr::store2(L + 53, (jr::set2(M[332], M[333]) - (L[29] * jr::load2(L + 34) + L[39] * jr::load2(L + 44))) * Dinv[5]);
@@ -765,8 +803,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[372] - (L[30] * L[30] + L[40] * L[40] + L[49] * L[49]);
     if (!(d > kPivotTolerance * M[372])) return not_positive_definite(6, d);
-    L[57] = std::sqrt(d);
-    Dinv[6] = 1.0 / L[57];
+    const double l = std::sqrt(d);
+    L[57] = l;
+    Dinv[6] = l * (1.0 / d);
     jr::store2(L + 58, (jr::set2(M[366], M[360]) - (L[30] * jr::load2(L + 31) + L[40] * jr::load2(L + 41) + L[49] * jr::load2(L + 50))) * Dinv[6]);
     jr::store2(L + 60, (jr::set2(M[361], M[362]) - (L[30] * jr::load2(L + 33) + L[40] * jr::load2(L + 43) + L[49] * jr::load2(L + 52))) * Dinv[6]);
     jr::store2(L + 62, (jr::set2(M[363], M[364]) - (L[30] * jr::load2(L + 35) + L[40] * jr::load2(L + 45) + L[49] * jr::load2(L + 54))) * Dinv[6]);
@@ -776,8 +815,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[527];
     if (!(d > kPivotTolerance * M[527])) return not_positive_definite(7, d);
-    L[65] = std::sqrt(d);
-    Dinv[7] = 1.0 / L[65];
+    const double l = std::sqrt(d);
+    L[65] = l;
+    Dinv[7] = l * (1.0 / d);
     jr::store2(L + 66, jr::set2(M[524], M[525]) * Dinv[7]);
     jr::store2(L + 68, jr::set2(M[526], M[516]) * Dinv[7]);
     jr::store2(L + 70, jr::set2(M[510], M[511]) * Dinv[7]);
@@ -788,8 +828,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[434] - L[66] * L[66];
     if (!(d > kPivotTolerance * M[434])) return not_positive_definite(8, d);
-    L[76] = std::sqrt(d);
-    Dinv[8] = 1.0 / L[76];
+    const double l = std::sqrt(d);
+    L[76] = l;
+    Dinv[8] = l * (1.0 / d);
     jr::store2(L + 77, (jr::set2(M[435], M[436]) - L[66] * jr::load2(L + 67)) * Dinv[8]);
     jr::store2(L + 79, (jr::set2(M[426], M[420]) - L[66] * jr::load2(L + 69)) * Dinv[8]);
     jr::store2(L + 81, (jr::set2(M[421], M[422]) - L[66] * jr::load2(L + 71)) * Dinv[8]);
@@ -800,8 +841,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[465] - (L[67] * L[67] + L[77] * L[77]);
     if (!(d > kPivotTolerance * M[465])) return not_positive_definite(9, d);
-    L[86] = std::sqrt(d);
-    Dinv[9] = 1.0 / L[86];
+    const double l = std::sqrt(d);
+    L[86] = l;
+    Dinv[9] = l * (1.0 / d);
     jr::store2(L + 87, (jr::set2(M[466], M[456]) - (L[67] * jr::load2(L + 68) + L[77] * jr::load2(L + 78))) * Dinv[9]);
     jr::store2(L + 89, (jr::set2(M[450], M[451]) - (L[67] * jr::load2(L + 70) + L[77] * jr::load2(L + 80))) * Dinv[9]);
     jr::store2(L + 91, (jr::set2(M[452], M[453]) - (L[67] * jr::load2(L + 72) + L[77] * jr::load2(L + 82))) * Dinv[9]);
@@ -811,8 +853,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[496] - (L[68] * L[68] + L[78] * L[78] + L[87] * L[87]);
     if (!(d > kPivotTolerance * M[496])) return not_positive_definite(10, d);
-    L[95] = std::sqrt(d);
-    Dinv[10] = 1.0 / L[95];
+    const double l = std::sqrt(d);
+    L[95] = l;
+    Dinv[10] = l * (1.0 / d);
     jr::store2(L + 96, (jr::set2(M[486], M[480]) - (L[68] * jr::load2(L + 69) + L[78] * jr::load2(L + 79) + L[87] * jr::load2(L + 88))) * Dinv[10]);
     jr::store2(L + 98, (jr::set2(M[481], M[482]) - (L[68] * jr::load2(L + 71) + L[78] * jr::load2(L + 81) + L[87] * jr::load2(L + 90))) * Dinv[10]);
     jr::store2(L + 100, (jr::set2(M[483], M[484]) - (L[68] * jr::load2(L + 73) + L[78] * jr::load2(L + 83) + L[87] * jr::load2(L + 92))) * Dinv[10]);
@@ -825,8 +868,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
     sd += L[79] * L[79] + L[88] * L[88] + L[96] * L[96];
     const double d = M[186] - sd;
     if (!(d > kPivotTolerance * M[186])) return not_positive_definite(11, d);
-    L[103] = std::sqrt(d);
-    Dinv[11] = 1.0 / L[103];
+    const double l = std::sqrt(d);
+    L[103] = l;
+    Dinv[11] = l * (1.0 / d);
     {
       jr::v2d s = L[3] * jr::load2(L + 4) + L[12] * jr::load2(L + 13) + L[20] * jr::load2(L + 21) + L[31] * jr::load2(L + 32) + L[41] * jr::load2(L + 42) + L[50] * jr::load2(L + 51) + L[58] * jr::load2(L + 59) + L[69] * jr::load2(L + 70);
       s += L[79] * jr::load2(L + 80) + L[88] * jr::load2(L + 89) + L[96] * jr::load2(L + 97);
@@ -847,8 +891,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[713];
     if (!(d > kPivotTolerance * M[713])) return not_positive_definite(12, d);
-    L[110] = std::sqrt(d);
-    Dinv[12] = 1.0 / L[110];
+    const double l = std::sqrt(d);
+    L[110] = l;
+    Dinv[12] = l * (1.0 / d);
     jr::store2(L + 111, jr::set2(M[712], M[711]) * Dinv[12]);
     jr::store2(L + 113, jr::set2(M[708], M[709]) * Dinv[12]);
     jr::store2(L + 115, jr::set2(M[710], M[690]) * Dinv[12]);
@@ -860,8 +905,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[682] - L[111] * L[111];
     if (!(d > kPivotTolerance * M[682])) return not_positive_definite(13, d);
-    L[122] = std::sqrt(d);
-    Dinv[13] = 1.0 / L[122];
+    const double l = std::sqrt(d);
+    L[122] = l;
+    Dinv[13] = l * (1.0 / d);
     jr::store2(L + 123, (jr::set2(M[681], M[678]) - L[111] * jr::load2(L + 112)) * Dinv[13]);
     jr::store2(L + 125, (jr::set2(M[679], M[680]) - L[111] * jr::load2(L + 114)) * Dinv[13]);
     jr::store2(L + 127, (jr::set2(M[660], M[661]) - L[111] * jr::load2(L + 116)) * Dinv[13]);
@@ -873,8 +919,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[651] - (L[112] * L[112] + L[123] * L[123]);
     if (!(d > kPivotTolerance * M[651])) return not_positive_definite(14, d);
-    L[133] = std::sqrt(d);
-    Dinv[14] = 1.0 / L[133];
+    const double l = std::sqrt(d);
+    L[133] = l;
+    Dinv[14] = l * (1.0 / d);
     jr::store2(L + 134, (jr::set2(M[648], M[649]) - (L[112] * jr::load2(L + 113) + L[123] * jr::load2(L + 124))) * Dinv[14]);
     jr::store2(L + 136, (jr::set2(M[650], M[630]) - (L[112] * jr::load2(L + 115) + L[123] * jr::load2(L + 126))) * Dinv[14]);
     jr::store2(L + 138, (jr::set2(M[631], M[632]) - (L[112] * jr::load2(L + 117) + L[123] * jr::load2(L + 128))) * Dinv[14]);
@@ -885,8 +932,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[558] - (L[113] * L[113] + L[124] * L[124] + L[134] * L[134]);
     if (!(d > kPivotTolerance * M[558])) return not_positive_definite(15, d);
-    L[143] = std::sqrt(d);
-    Dinv[15] = 1.0 / L[143];
+    const double l = std::sqrt(d);
+    L[143] = l;
+    Dinv[15] = l * (1.0 / d);
     jr::store2(L + 144, (jr::set2(M[559], M[560]) - (L[113] * jr::load2(L + 114) + L[124] * jr::load2(L + 125) + L[134] * jr::load2(L + 135))) * Dinv[15]);
     jr::store2(L + 146, (jr::set2(M[540], M[541]) - (L[113] * jr::load2(L + 116) + L[124] * jr::load2(L + 127) + L[134] * jr::load2(L + 137))) * Dinv[15]);
     jr::store2(L + 148, (jr::set2(M[542], M[543]) - (L[113] * jr::load2(L + 118) + L[124] * jr::load2(L + 129) + L[134] * jr::load2(L + 139))) * Dinv[15]);
@@ -896,30 +944,33 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[589] - (L[114] * L[114] + L[125] * L[125] + L[135] * L[135] + L[144] * L[144]);
     if (!(d > kPivotTolerance * M[589])) return not_positive_definite(16, d);
-    L[152] = std::sqrt(d);
-    Dinv[16] = 1.0 / L[152];
+    const double l = std::sqrt(d);
+    L[152] = l;
+    Dinv[16] = l * (1.0 / d);
     jr::store2(L + 153, (jr::set2(M[590], M[570]) - (L[114] * jr::load2(L + 115) + L[125] * jr::load2(L + 126) + L[135] * jr::load2(L + 136) + L[144] * jr::load2(L + 145))) * Dinv[16]);
     jr::store2(L + 155, (jr::set2(M[571], M[572]) - (L[114] * jr::load2(L + 117) + L[125] * jr::load2(L + 128) + L[135] * jr::load2(L + 138) + L[144] * jr::load2(L + 147))) * Dinv[16]);
     jr::store2(L + 157, (jr::set2(M[573], M[574]) - (L[114] * jr::load2(L + 119) + L[125] * jr::load2(L + 130) + L[135] * jr::load2(L + 140) + L[144] * jr::load2(L + 149))) * Dinv[16]);
     L[159] = (M[575] - (L[114] * L[121] + L[125] * L[132] + L[135] * L[142] + L[144] * L[151])) * Dinv[16];
   }
+  jr::compiler_fence();
   // column 17: joint 'left_hip' (coordinate 3 of 3); 5 descendant(s), 6 ancestor row(s)
   {
     const double d = M[620] - (L[115] * L[115] + L[126] * L[126] + L[136] * L[136] + L[145] * L[145] + L[153] * L[153]);
     if (!(d > kPivotTolerance * M[620])) return not_positive_definite(17, d);
-    L[160] = std::sqrt(d);
-    Dinv[17] = 1.0 / L[160];
+    const double l = std::sqrt(d);
+    L[160] = l;
+    Dinv[17] = l * (1.0 / d);
     jr::store2(L + 161, (jr::set2(M[600], M[601]) - (L[115] * jr::load2(L + 116) + L[126] * jr::load2(L + 127) + L[136] * jr::load2(L + 137) + L[145] * jr::load2(L + 146) + L[153] * jr::load2(L + 154))) * Dinv[17]);
     jr::store2(L + 163, (jr::set2(M[602], M[603]) - (L[115] * jr::load2(L + 118) + L[126] * jr::load2(L + 129) + L[136] * jr::load2(L + 139) + L[145] * jr::load2(L + 148) + L[153] * jr::load2(L + 156))) * Dinv[17]);
     jr::store2(L + 165, (jr::set2(M[604], M[605]) - (L[115] * jr::load2(L + 120) + L[126] * jr::load2(L + 131) + L[136] * jr::load2(L + 141) + L[145] * jr::load2(L + 150) + L[153] * jr::load2(L + 158))) * Dinv[17]);
   }
-  jr::compiler_fence();
   // column 18: joint 'right_ankle_roll'; 0 descendant(s), 11 ancestor row(s)
   {
     const double d = M[899];
     if (!(d > kPivotTolerance * M[899])) return not_positive_definite(18, d);
-    L[167] = std::sqrt(d);
-    Dinv[18] = 1.0 / L[167];
+    const double l = std::sqrt(d);
+    L[167] = l;
+    Dinv[18] = l * (1.0 / d);
     jr::store2(L + 168, jr::set2(M[898], M[897]) * Dinv[18]);
     jr::store2(L + 170, jr::set2(M[894], M[895]) * Dinv[18]);
     jr::store2(L + 172, jr::set2(M[896], M[870]) * Dinv[18]);
@@ -931,8 +982,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[868] - L[168] * L[168];
     if (!(d > kPivotTolerance * M[868])) return not_positive_definite(19, d);
-    L[179] = std::sqrt(d);
-    Dinv[19] = 1.0 / L[179];
+    const double l = std::sqrt(d);
+    L[179] = l;
+    Dinv[19] = l * (1.0 / d);
     jr::store2(L + 180, (jr::set2(M[867], M[864]) - L[168] * jr::load2(L + 169)) * Dinv[19]);
     jr::store2(L + 182, (jr::set2(M[865], M[866]) - L[168] * jr::load2(L + 171)) * Dinv[19]);
     jr::store2(L + 184, (jr::set2(M[840], M[841]) - L[168] * jr::load2(L + 173)) * Dinv[19]);
@@ -943,20 +995,23 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[837] - (L[169] * L[169] + L[180] * L[180]);
     if (!(d > kPivotTolerance * M[837])) return not_positive_definite(20, d);
-    L[190] = std::sqrt(d);
-    Dinv[20] = 1.0 / L[190];
+    const double l = std::sqrt(d);
+    L[190] = l;
+    Dinv[20] = l * (1.0 / d);
     jr::store2(L + 191, (jr::set2(M[834], M[835]) - (L[169] * jr::load2(L + 170) + L[180] * jr::load2(L + 181))) * Dinv[20]);
     jr::store2(L + 193, (jr::set2(M[836], M[810]) - (L[169] * jr::load2(L + 172) + L[180] * jr::load2(L + 183))) * Dinv[20]);
     jr::store2(L + 195, (jr::set2(M[811], M[812]) - (L[169] * jr::load2(L + 174) + L[180] * jr::load2(L + 185))) * Dinv[20]);
     jr::store2(L + 197, (jr::set2(M[813], M[814]) - (L[169] * jr::load2(L + 176) + L[180] * jr::load2(L + 187))) * Dinv[20]);
     L[199] = (M[815] - (L[169] * L[178] + L[180] * L[189])) * Dinv[20];
   }
+  jr::compiler_fence();
   // column 21: joint 'right_hip' (coordinate 1 of 3); 3 descendant(s), 8 ancestor row(s)
   {
     const double d = M[744] - (L[170] * L[170] + L[181] * L[181] + L[191] * L[191]);
     if (!(d > kPivotTolerance * M[744])) return not_positive_definite(21, d);
-    L[200] = std::sqrt(d);
-    Dinv[21] = 1.0 / L[200];
+    const double l = std::sqrt(d);
+    L[200] = l;
+    Dinv[21] = l * (1.0 / d);
     jr::store2(L + 201, (jr::set2(M[745], M[746]) - (L[170] * jr::load2(L + 171) + L[181] * jr::load2(L + 182) + L[191] * jr::load2(L + 192))) * Dinv[21]);
     jr::store2(L + 203, (jr::set2(M[720], M[721]) - (L[170] * jr::load2(L + 173) + L[181] * jr::load2(L + 184) + L[191] * jr::load2(L + 194))) * Dinv[21]);
     jr::store2(L + 205, (jr::set2(M[722], M[723]) - (L[170] * jr::load2(L + 175) + L[181] * jr::load2(L + 186) + L[191] * jr::load2(L + 196))) * Dinv[21]);
@@ -966,24 +1021,26 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
   {
     const double d = M[775] - (L[171] * L[171] + L[182] * L[182] + L[192] * L[192] + L[201] * L[201]);
     if (!(d > kPivotTolerance * M[775])) return not_positive_definite(22, d);
-    L[209] = std::sqrt(d);
-    Dinv[22] = 1.0 / L[209];
+    const double l = std::sqrt(d);
+    L[209] = l;
+    Dinv[22] = l * (1.0 / d);
     jr::store2(L + 210, (jr::set2(M[776], M[750]) - (L[171] * jr::load2(L + 172) + L[182] * jr::load2(L + 183) + L[192] * jr::load2(L + 193) + L[201] * jr::load2(L + 202))) * Dinv[22]);
     jr::store2(L + 212, (jr::set2(M[751], M[752]) - (L[171] * jr::load2(L + 174) + L[182] * jr::load2(L + 185) + L[192] * jr::load2(L + 195) + L[201] * jr::load2(L + 204))) * Dinv[22]);
     jr::store2(L + 214, (jr::set2(M[753], M[754]) - (L[171] * jr::load2(L + 176) + L[182] * jr::load2(L + 187) + L[192] * jr::load2(L + 197) + L[201] * jr::load2(L + 206))) * Dinv[22]);
     L[216] = (M[755] - (L[171] * L[178] + L[182] * L[189] + L[192] * L[199] + L[201] * L[208])) * Dinv[22];
   }
-  jr::compiler_fence();
   // column 23: joint 'right_hip' (coordinate 3 of 3); 5 descendant(s), 6 ancestor row(s)
   {
     const double d = M[806] - (L[172] * L[172] + L[183] * L[183] + L[193] * L[193] + L[202] * L[202] + L[210] * L[210]);
     if (!(d > kPivotTolerance * M[806])) return not_positive_definite(23, d);
-    L[217] = std::sqrt(d);
-    Dinv[23] = 1.0 / L[217];
+    const double l = std::sqrt(d);
+    L[217] = l;
+    Dinv[23] = l * (1.0 / d);
     jr::store2(L + 218, (jr::set2(M[780], M[781]) - (L[172] * jr::load2(L + 173) + L[183] * jr::load2(L + 184) + L[193] * jr::load2(L + 194) + L[202] * jr::load2(L + 203) + L[210] * jr::load2(L + 211))) * Dinv[23]);
     jr::store2(L + 220, (jr::set2(M[782], M[783]) - (L[172] * jr::load2(L + 175) + L[183] * jr::load2(L + 186) + L[193] * jr::load2(L + 196) + L[202] * jr::load2(L + 205) + L[210] * jr::load2(L + 213))) * Dinv[23]);
     jr::store2(L + 222, (jr::set2(M[784], M[785]) - (L[172] * jr::load2(L + 177) + L[183] * jr::load2(L + 188) + L[193] * jr::load2(L + 198) + L[202] * jr::load2(L + 207) + L[210] * jr::load2(L + 215))) * Dinv[23]);
   }
+  jr::compiler_fence();
   // column 24: joint 'floating_base' (coordinate 1 of 6); 24 descendant(s), 5 ancestor row(s)
   {
     double sd = L[4] * L[4] + L[13] * L[13] + L[21] * L[21] + L[32] * L[32] + L[42] * L[42] + L[51] * L[51] + L[59] * L[59] + L[70] * L[70];
@@ -991,8 +1048,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
     sd += L[154] * L[154] + L[161] * L[161] + L[173] * L[173] + L[184] * L[184] + L[194] * L[194] + L[203] * L[203] + L[211] * L[211] + L[218] * L[218];
     const double d = M[0] - sd;
     if (!(d > kPivotTolerance * M[0])) return not_positive_definite(24, d);
-    L[224] = std::sqrt(d);
-    Dinv[24] = 1.0 / L[224];
+    const double l = std::sqrt(d);
+    L[224] = l;
+    Dinv[24] = l * (1.0 / d);
     {
       jr::v2d s = L[4] * jr::load2(L + 5) + L[13] * jr::load2(L + 14) + L[21] * jr::load2(L + 22) + L[32] * jr::load2(L + 33) + L[42] * jr::load2(L + 43) + L[51] * jr::load2(L + 52) + L[59] * jr::load2(L + 60) + L[70] * jr::load2(L + 71);
       s += L[80] * jr::load2(L + 81) + L[89] * jr::load2(L + 90) + L[97] * jr::load2(L + 98) + L[104] * jr::load2(L + 105) + L[116] * jr::load2(L + 117) + L[127] * jr::load2(L + 128) + L[137] * jr::load2(L + 138) + L[146] * jr::load2(L + 147);
@@ -1021,8 +1079,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
     sd += L[225] * L[225];
     const double d = M[31] - sd;
     if (!(d > kPivotTolerance * M[31])) return not_positive_definite(25, d);
-    L[230] = std::sqrt(d);
-    Dinv[25] = 1.0 / L[230];
+    const double l = std::sqrt(d);
+    L[230] = l;
+    Dinv[25] = l * (1.0 / d);
     {
       jr::v2d s = L[5] * jr::load2(L + 6) + L[14] * jr::load2(L + 15) + L[22] * jr::load2(L + 23) + L[33] * jr::load2(L + 34) + L[43] * jr::load2(L + 44) + L[52] * jr::load2(L + 53) + L[60] * jr::load2(L + 61) + L[71] * jr::load2(L + 72);
       s += L[81] * jr::load2(L + 82) + L[90] * jr::load2(L + 91) + L[98] * jr::load2(L + 99) + L[105] * jr::load2(L + 106) + L[117] * jr::load2(L + 118) + L[128] * jr::load2(L + 129) + L[138] * jr::load2(L + 139) + L[147] * jr::load2(L + 148);
@@ -1047,8 +1106,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
     sd += L[226] * L[226] + L[231] * L[231];
     const double d = M[62] - sd;
     if (!(d > kPivotTolerance * M[62])) return not_positive_definite(26, d);
-    L[235] = std::sqrt(d);
-    Dinv[26] = 1.0 / L[235];
+    const double l = std::sqrt(d);
+    L[235] = l;
+    Dinv[26] = l * (1.0 / d);
     {
       jr::v2d s = L[6] * jr::load2(L + 7) + L[15] * jr::load2(L + 16) + L[23] * jr::load2(L + 24) + L[34] * jr::load2(L + 35) + L[44] * jr::load2(L + 45) + L[53] * jr::load2(L + 54) + L[61] * jr::load2(L + 62) + L[72] * jr::load2(L + 73);
       s += L[82] * jr::load2(L + 83) + L[91] * jr::load2(L + 92) + L[99] * jr::load2(L + 100) + L[106] * jr::load2(L + 107) + L[118] * jr::load2(L + 119) + L[129] * jr::load2(L + 130) + L[139] * jr::load2(L + 140) + L[148] * jr::load2(L + 149);
@@ -1073,8 +1133,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
     sd += L[227] * L[227] + L[232] * L[232] + L[236] * L[236];
     const double d = M[93] - sd;
     if (!(d > kPivotTolerance * M[93])) return not_positive_definite(27, d);
-    L[239] = std::sqrt(d);
-    Dinv[27] = 1.0 / L[239];
+    const double l = std::sqrt(d);
+    L[239] = l;
+    Dinv[27] = l * (1.0 / d);
     {
       jr::v2d s = L[7] * jr::load2(L + 8) + L[16] * jr::load2(L + 17) + L[24] * jr::load2(L + 25) + L[35] * jr::load2(L + 36) + L[45] * jr::load2(L + 46) + L[54] * jr::load2(L + 55) + L[62] * jr::load2(L + 63) + L[73] * jr::load2(L + 74);
       s += L[83] * jr::load2(L + 84) + L[92] * jr::load2(L + 93) + L[100] * jr::load2(L + 101) + L[107] * jr::load2(L + 108) + L[119] * jr::load2(L + 120) + L[130] * jr::load2(L + 131) + L[140] * jr::load2(L + 141) + L[149] * jr::load2(L + 150);
@@ -1091,8 +1152,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
     sd += L[228] * L[228] + L[233] * L[233] + L[237] * L[237] + L[240] * L[240];
     const double d = M[124] - sd;
     if (!(d > kPivotTolerance * M[124])) return not_positive_definite(28, d);
-    L[242] = std::sqrt(d);
-    Dinv[28] = 1.0 / L[242];
+    const double l = std::sqrt(d);
+    L[242] = l;
+    Dinv[28] = l * (1.0 / d);
     {
       double s = L[8] * L[9] + L[17] * L[18] + L[25] * L[26] + L[36] * L[37] + L[46] * L[47] + L[55] * L[56] + L[63] * L[64] + L[74] * L[75];
       s += L[84] * L[85] + L[93] * L[94] + L[101] * L[102] + L[108] * L[109] + L[120] * L[121] + L[131] * L[132] + L[141] * L[142] + L[150] * L[151];
@@ -1110,8 +1172,9 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
     sd += L[229] * L[229] + L[234] * L[234] + L[238] * L[238] + L[241] * L[241] + L[243] * L[243];
     const double d = M[155] - sd;
     if (!(d > kPivotTolerance * M[155])) return not_positive_definite(29, d);
-    L[244] = std::sqrt(d);
-    Dinv[29] = 1.0 / L[244];
+    const double l = std::sqrt(d);
+    L[244] = l;
+    Dinv[29] = l * (1.0 / d);
   }
   return 0;
 }
