@@ -411,9 +411,13 @@ int run(int argc, char** argv, const ModelInfo& info, const GeneratedApi& llt, c
       opt.passthrough.push_back(argv[i]);
     }
   }
-  // Google Benchmark: the median of repeated runs.
+  // Google Benchmark: the median of repeated runs, the repetitions of all
+  // methods randomly interleaved, so that a change of the machine's speed
+  // during the program (docs/benchmarks.md, runs 5 and 8) falls on every
+  // method alike instead of on the ones that happened to run then.
   std::vector<std::string> gb_args = {opt.quick ? "--benchmark_min_time=0.01" : "--benchmark_min_time=0.1",
                                       opt.quick ? "--benchmark_repetitions=3" : "--benchmark_repetitions=7",
+                                      "--benchmark_enable_random_interleaving=true",
                                       "--benchmark_report_aggregates_only=true"};
   if (!opt.json.empty()) {
     gb_args.push_back("--benchmark_out=" + opt.json);
