@@ -73,10 +73,10 @@ inline constexpr std::size_t kMaxTermsPerStatement = 8;
 // (docs/benchmarks.md, run 8; each shape built at six code placements):
 // a fence between every two units made the HMMWV 6% and talos 9% faster
 // but tree_d4_30 5% slower, whose short columns gain from the values kept
-// in registers; after every 64 products the HMMWV is 5% faster, its L D L^T
-// variant 13%, legged30, chain_30 and talos 9-10%, the Stewart platform 5%,
-// tree_d4_30 and tree_100 unchanged; after every 128 products the HMMWV
-// kept most of its spills (0.5%).
+// in registers; after every 128 products the HMMWV gained 0.5%.  After
+// every 64, as landed: the HMMWV 5% faster, its L D L^T variant 11%,
+// legged30 11%, tree_300 7%, talos, chain_30 and the Stewart platform
+// 5-6%, tree_d4_30 and tree_d4_100 unchanged, tree_100 3.5% slower.
 inline constexpr std::size_t kFenceProducts = 64;
 
 /// A product a * b of two named scalars.

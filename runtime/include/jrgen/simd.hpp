@@ -61,9 +61,9 @@ inline void store2(double* p, v2d v) { std::memcpy(p, &v, sizeof v); }
 /// of large models (every kFenceProducts products).  Without it GCC carries
 /// hundreds of values from one block to the next in registers and spills
 /// most of them to the stack: on the HMMWV a third of Step 1's and Step
-/// 3.1's instructions were stack traffic, and the run time swung by up to
-/// 20% with the code's placement.  Reading the stored entries back costs a
-/// store-to-load forwarding instead (docs/benchmarks.md, run 8).
+/// 3.1's instructions were stack traffic.  Reading the stored entries back
+/// costs a store-to-load forwarding instead; the HMMWV solve runs 5% faster,
+/// legged30's 11% (docs/benchmarks.md, run 8).
 inline void compiler_fence() { std::atomic_signal_fence(std::memory_order_seq_cst); }
 
 }  // namespace jr
