@@ -371,12 +371,18 @@ inline void schur_dense_backward_loops(const double* W, const double* Winv, Size
 // The public kernels below and in constraint_solve.cpp: z_m (user row
 // order) gathered into work (elimination order) and lambda scattered back.
 template <class Size>
+inline void schur_dense_backward_all(const double* W, const double* Winv, Size m, const std::int32_t* order, bool ldlt,
+                                     double* work, double* zm) {
+  schur_dense_backward_loops(W, Winv, m, ldlt, work);
+  for (std::int32_t j = 0; j < m; ++j) zm[order[j]] = work[j];
+}
+
+template <class Size>
 inline void schur_dense_solve_all(const double* W, const double* Winv, Size m, const std::int32_t* order, bool ldlt,
                                   double* work, double* zm) {
   for (std::int32_t j = 0; j < m; ++j) work[j] = zm[order[j]];
   schur_dense_forward_loops(W, Winv, m, ldlt, work);
-  schur_dense_backward_loops(W, Winv, m, ldlt, work);
-  for (std::int32_t j = 0; j < m; ++j) zm[order[j]] = work[j];
+  schur_dense_backward_all(W, Winv, m, order, ldlt, work, zm);
 }
 
 template <class Size>
@@ -385,13 +391,6 @@ inline std::int32_t schur_dense_factor_forward_all(double* W, double* Winv, Size
                                                    const double* zm) {
   for (std::int32_t j = 0; j < m; ++j) work[j] = zm[order[j]];
   return schur_dense_factor_loops<true>(W, Winv, m, ldlt, pivot_tolerance, pivot, work);
-}
-
-template <class Size>
-inline void schur_dense_backward_all(const double* W, const double* Winv, Size m, const std::int32_t* order, bool ldlt,
-                                     double* work, double* zm) {
-  schur_dense_backward_loops(W, Winv, m, ldlt, work);
-  for (std::int32_t j = 0; j < m; ++j) zm[order[j]] = work[j];
 }
 
 }  // namespace detail
