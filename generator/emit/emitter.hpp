@@ -26,6 +26,11 @@ struct Options {
   /// Corollary 3 parallel variant (--threads): 0 auto (trees of at least
   /// kMinParallelDofs dofs), 1 never, N >= 2 always with N OpenMP threads.
   int threads = 0;
+  /// --divide: the straight-line steps divide by each pivot where it is
+  /// used (one rounding per entry, the operation mix of the paper's Tables
+  /// 1-3) instead of multiplying by its reciprocal.  Steps that run the
+  /// runtime's loops keep the reciprocals (Solver::notes says which).
+  bool divide = false;
 };
 
 /// Floating-point operations of emitted code, counted as written.
@@ -49,6 +54,8 @@ struct Solver {
   std::string header;
   std::string source;
   std::vector<StepOps> ops;  ///< per step of Section 4.3, in order
+  std::vector<std::string> notes;  ///< one line each, for stderr (jrgen: note: ...)
+  bool divide = false;             ///< emitted with Options::divide
 };
 
 /// Throws jrgen::Error for models the generated code cannot serve.

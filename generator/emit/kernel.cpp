@@ -33,16 +33,17 @@ std::string partial_sums(Kernel::Unit& u, const std::string& indent, const std::
 }  // namespace
 
 void Kernel::update(Unit& u, const std::string& indent, const std::string& target, const std::string& base,
-                    const std::vector<Term>& terms, const std::string& scale, const std::string& decl,
+                    const std::vector<Term>& terms, const Scale& scale, const std::string& decl,
                     const std::string& acc) {
   ops.mul += static_cast<long long>(terms.size());
   // With no base the sum is negated, not subtracted from anything: one
   // addition fewer (a sign change is not counted).
   ops.add += static_cast<long long>(terms.size()) - (base.empty() && !terms.empty() ? 1 : 0);
-  if (!scale.empty()) ops.mul += 1;
+  if (!scale.empty()) (scale.divide ? ops.div : ops.mul) += 1;
   if (terms.empty()) {
-    if (decl.empty() && !scale.empty() && target == base) u.lines.push_back(indent + target + " *= " + scale + ";");
-    else u.lines.push_back(indent + decl + target + " = " + base + (scale.empty() ? "" : " * " + scale) + ";");
+    if (decl.empty() && !scale.empty() && target == base)
+      u.lines.push_back(indent + target + (scale.divide ? " /= " : " *= ") + scale.by + ";");
+    else u.lines.push_back(indent + decl + target + " = " + base + (scale.empty() ? "" : scale.applied()) + ";");
     ++u.statements;
     return;
   }
@@ -60,18 +61,20 @@ void Kernel::update(Unit& u, const std::string& indent, const std::string& targe
   } else {
     value = minus + partial_sums(u, in, terms, acc);
   }
-  u.lines.push_back(in + decl + target + " = " + (scale.empty() ? value : "(" + value + ") * " + scale) + ";");
+  u.lines.push_back(in + decl + target + " = " + (scale.empty() ? value : "(" + value + ")" + scale.applied()) + ";");
   ++u.statements;
   if (scoped) u.lines.push_back(indent + "}");
 }
 
 void Kernel::update_pair(Unit& u, const std::string& indent, const std::string& target, const std::string& base,
-                         const std::vector<Term>& terms, const std::string& scale) {
-  ops.mul += 2 * static_cast<long long>(terms.size()) + (scale.empty() ? 0 : 2);
+                         const std::vector<Term>& terms, const Scale& scale) {
+  ops.mul += 2 * static_cast<long long>(terms.size());
+  if (!scale.empty()) (scale.divide ? ops.div : ops.mul) += 2;
   // With no base the sum is negated, as in update(): one addition fewer per lane.
   ops.add += 2 * static_cast<long long>(terms.size()) - (base.empty() && !terms.empty() ? 2 : 0);
   auto store = [&](const std::string& in, const std::string& value) {
-    const std::string scaled = scale.empty() ? value : terms.empty() ? value + " * " + scale : "(" + value + ") * " + scale;
+    const std::string scaled =
+        scale.empty() ? value : terms.empty() ? value + scale.applied() : "(" + value + ")" + scale.applied();
     u.lines.push_back(in + "jr::store2(" + target + ", " + scaled + ");");
     ++u.statements;
   };

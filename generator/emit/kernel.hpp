@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "emit/emitter.hpp"
@@ -84,6 +85,24 @@ struct Term {
   std::string a, b;
 };
 
+/// The final scaling of an update: "* by" (a reciprocal pivot), or with
+/// `divide` "/ by" (the pivot itself, --divide).  Empty `by`: none.
+struct Scale {
+  std::string by;
+  bool divide = false;
+  Scale() = default;
+  Scale(std::string factor) : by(std::move(factor)) {}  // NOLINT: a product, as the plain strings before
+  Scale(const char* factor) : by(factor) {}              // NOLINT
+  static Scale divided_by(std::string pivot) {
+    Scale s(std::move(pivot));
+    s.divide = true;
+    return s;
+  }
+  bool empty() const { return by.empty(); }
+  /// " * by" or " / by".
+  std::string applied() const { return (divide ? " / " : " * ") + by; }
+};
+
 struct Kernel {
   struct Unit {
     std::vector<std::string> lines;
@@ -99,23 +118,25 @@ struct Kernel {
   Unit& unit() { return units.emplace_back(); }
 
   /// Appends "decl target = (base - sum terms) * scale;" (scale may be empty;
-  /// "target *= scale;" when there are no terms; base may be empty: "-sum").
-  /// Counts len(terms) multiplications and additions (one fewer with no
-  /// base), plus one multiplication for the scale.
+  /// "target *= scale;" when there are no terms; base may be empty: "-sum";
+  /// "/" for a dividing Scale).  Counts len(terms) multiplications and
+  /// additions (one fewer with no base), plus one multiplication (division)
+  /// for the scale.
   /// Sums of more than kMaxTermsPerStatement products go through a partial
   /// sum named `acc`, inside a block when `scoped`.
   void update(Unit& u, const std::string& indent, const std::string& target, const std::string& base,
-              const std::vector<Term>& terms, const std::string& scale, const std::string& decl = "",
+              const std::vector<Term>& terms, const Scale& scale, const std::string& decl = "",
               const std::string& acc = "s");
 
   /// Two update()s of neighbouring targets as one statement on jr::v2d:
-  /// "jr::store2(target, (base - sum terms) * scale);" (scale may be empty),
+  /// "jr::store2(target, (base - sum terms) * scale);" (scale may be empty;
+  /// "/" for a dividing Scale),
   /// with `target` a pointer expression, `base` a jr::v2d expression, and in
   /// each term a scalar times a jr::v2d expression (jrgen/simd.hpp).  Each
   /// lane computes exactly what update() would for its target, in the same
   /// order, and counts as two update()s (base may be empty: "-sum").
   void update_pair(Unit& u, const std::string& indent, const std::string& target, const std::string& base,
-                   const std::vector<Term>& terms, const std::string& scale);
+                   const std::vector<Term>& terms, const Scale& scale);
 
   /// Appends "target = sum terms - tail;" (tail may be empty).  Counts
   /// len(terms) multiplications, len(terms) - 1 additions, plus one for the tail.

@@ -345,7 +345,13 @@ long long step3_unroll_limit() { return limit_from_environment("JRGEN_STEP3_UNRO
 
 long long unroll_limit() { return limit_from_environment("JRGEN_UNROLL_LIMIT", kMaxUnrolledProducts); }
 
-LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gathers, const std::string& name_space) {
+bool step3_table_driven(const topology::Tree& t) {
+  if (t.nc() == 0) return false;
+  return step3_tables(t, kept_rows(t), schur_pattern(t)).products > step3_unroll_limit();
+}
+
+LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool unrolled_gathers,
+                    const std::string& name_space) {
   LoopCode out;
   const bool ldlt = method == Method::kLDLT;
   const std::vector<Row> rows = kept_rows(t);
@@ -429,6 +435,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
 
   if (!unrolled) {
     table_driven_step3(t, sp, tab, ldlt, name_space, out);
+    out.reciprocal_steps = "3.1-3.5 (the runtime's table-driven loops)";
     return out;
   }
 
@@ -499,7 +506,8 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
           if (td.at(v, g2) != td.at(v, g) + 1) return false;
         return true;
       };
-      const std::string scale = ldlt ? "" : fmt::format("Dinv[{}]", i);  // LDLT: unit diagonal
+      // LDLT: unit diagonal.  --divide: by the pivot L[i,i] itself.
+      const Scale scale = ldlt ? Scale() : divide ? Scale::divided_by(L(t, i, i)) : Scale(fmt::format("Dinv[{}]", i));
       const std::vector<int>& gs = td.rows[i];
       for (std::size_t p = 0; p < gs.size();) {
         const int g = gs[p];
@@ -533,9 +541,10 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
       Kernel::Unit& u = k32.unit();
       u.lines.push_back(fmt::format("// V, row {}: {}", i, dof_label(t, i)));
       for (int g : td.rows[i]) {
-        u.lines.push_back(fmt::format("{} = {} * Dinv[{}];", Vr(i, g), Tr(i, g), i));
+        u.lines.push_back(divide ? fmt::format("{} = {} / {};", Vr(i, g), Tr(i, g), L(t, i, i))
+                                 : fmt::format("{} = {} * Dinv[{}];", Vr(i, g), Tr(i, g), i));
         ++u.statements;
-        k32.ops.mul += 1;
+        (divide ? k32.ops.div : k32.ops.mul) += 1;
       }
     }
   }
@@ -608,7 +617,13 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
 
   // ---- Step 3.4: factor T^T T (packed, fill included) and solve for lambda ----
   Kernel k34f, k34s;
+  // Column j's entries are scaled by Winv[j] = 1 / pivot, or with --divide
+  // divided by the pivot W[j, j] itself.
+  auto pivot_scale = [&](int j) {
+    return divide ? Scale::divided_by(fmt::format("W[{}]", sp.position(j, j))) : Scale(fmt::format("Winv[{}]", j));
+  };
   if (dense_schur) {
+    out.reciprocal_steps = "3.4 (the runtime's dense kernels)";
     // The runtime's right-looking loops factor in the order of L D L^T
     // (jrgen/constraint_solve.hpp): m (m^2 - 1) / 6 products and
     // subtractions, one product f = w / d per pair of columns, one division
@@ -645,16 +660,19 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
         k34f.update(u, in, "d", diag, sq, "", "const double ", "sd");
         u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return constraints_singular({}, d);", diag, sp.order[j]));
         u.lines.push_back(in + diag + " = std::sqrt(d);");
-        u.lines.push_back(in + fmt::format("Winv[{}] = 1.0 / {};", j, diag));
-        u.statements += 3;
+        u.statements += 2;
         k34f.ops.sqrt += 1;
-        k34f.ops.div += 1;
+        if (!divide) {
+          u.lines.push_back(in + fmt::format("Winv[{}] = 1.0 / {};", j, diag));
+          ++u.statements;
+          k34f.ops.div += 1;
+        }
         for (int r : sp.pattern[j]) {
           std::vector<Term> terms;
           for (int i : common_left(r)) terms.push_back({Wat(j, i), Wat(r, i)});
-          k34f.update(u, in, Wat(r, j), Wat(r, j), terms, fmt::format("Winv[{}]", j));
+          k34f.update(u, in, Wat(r, j), Wat(r, j), terms, pivot_scale(j));
         }
-      } else {
+      } else if (!divide) {
         std::vector<Term> dterms;
         std::map<int, std::string> w;
         for (int i : left) {
@@ -674,7 +692,34 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
         for (int r : sp.pattern[j]) {
           std::vector<Term> terms;
           for (int i : common_left(r)) terms.push_back({w[i], Wat(r, i)});
-          k34f.update(u, in, Wat(r, j), Wat(r, j), terms, fmt::format("Winv[{}]", j));
+          k34f.update(u, in, Wat(r, j), Wat(r, j), terms, pivot_scale(j));
+        }
+      } else {
+        // --divide: as Step 1's L D L^T with --divide, an entry W[r,i]
+        // stays unscaled (L_W D_W) until column r, which divides it by its
+        // pivot and needs both forms (no products w_i).
+        std::vector<Term> dterms;
+        std::map<int, std::string> l;
+        for (int i : left) {
+          const std::string name = fmt::format("l{}", l.size());
+          u.lines.push_back(in + fmt::format("const double {} = {} / {};", name, Wat(j, i), Wat(i, i)));
+          ++u.statements;
+          k34f.ops.div += 1;
+          l[i] = name;
+          dterms.push_back({Wat(j, i), name});
+        }
+        k34f.update(u, in, "d", diag, dterms, "", "const double ", "sd");
+        u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return constraints_singular({}, d);", diag, sp.order[j]));
+        u.lines.push_back(in + diag + " = d;");
+        u.statements += 2;
+        for (const auto& [i, name] : l) {
+          u.lines.push_back(in + fmt::format("{} = {};", Wat(j, i), name));
+          ++u.statements;
+        }
+        for (int r : sp.pattern[j]) {
+          std::vector<Term> terms;
+          for (int i : common_left(r)) terms.push_back({Wat(r, i), l[i]});
+          if (!terms.empty()) k34f.update(u, in, Wat(r, j), Wat(r, j), terms, Scale());
         }
       }
       u.lines.push_back("}");
@@ -687,7 +732,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
       Kernel::Unit& u = k34s.unit();
       u.lines.push_back(fmt::format("// forward, row {}", j));
       const std::string z = fmt::format("zm[{}]", sp.order[j]);
-      k34s.update(u, "", z, z, terms, ldlt ? "" : fmt::format("Winv[{}]", j));
+      k34s.update(u, "", z, z, terms, ldlt ? Scale() : pivot_scale(j));
     }
     for (int j = m - 1; j >= 0; --j) {  // backward
       std::vector<Term> terms;
@@ -699,10 +744,10 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
       u.lines.push_back(fmt::format("// backward, row {}", j));
       const std::string z = fmt::format("zm[{}]", sp.order[j]);
       if (ldlt) {
-        k34s.ops.mul += 1;
-        k34s.update(u, "", z, z + fmt::format(" * Winv[{}]", j), terms, "");
+        (divide ? k34s.ops.div : k34s.ops.mul) += 1;
+        k34s.update(u, "", z, z + pivot_scale(j).applied(), terms, "");
       } else {
-        k34s.update(u, "", z, z, terms, fmt::format("Winv[{}]", j));
+        k34s.update(u, "", z, z, terms, pivot_scale(j));
       }
     }
   }
@@ -748,11 +793,13 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
                   "Ops: {2} add, {3} mul, {4} div.",
                   U, ldlt ? " L has a unit diagonal: U = L^-1 Phiq^T." : "", k31.ops.add, k31.ops.mul, k31.ops.div));
   s += "\n\n";
+  // L D L^T: V = D^-1 U reads Dinv, or with --divide the pivots on L's diagonal.
+  const std::string pivots = divide ? "L" : "Dinv";
   s += k32.functions(
       "step32_rhs",
-      ldlt ? "const double* T, const double* Dinv, const double* z, const double* gamma, double* V, double* zm"
+      ldlt ? "const double* T, const double* " + pivots + ", const double* z, const double* gamma, double* V, double* zm"
            : "const double* T, const double* z, const double* gamma, double* zm",
-      ldlt ? "T, Dinv, z, gamma, V, zm" : "T, z, gamma, zm", false,
+      ldlt ? "T, " + pivots + ", z, gamma, V, zm" : "T, z, gamma, zm", false,
       fmt::format("---- Step 3.2: z_m = {} ----\nOps: {} add, {} mul, {} div.",
                   ldlt ? "U^T D^-1 y - gamma, with V = D^-1 U kept for Step 3.3." : "T^T z_n - gamma.", k32.ops.add,
                   k32.ops.mul, k32.ops.div));
@@ -825,7 +872,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool unrolled_gather
   }
   out.step3 = s;
   out.call_args["step31_args"] = ldlt ? "g_L, g_T, g_Tr" : "g_L, g_Dinv, g_T, g_Tr";
-  out.call_args["step32_args"] = ldlt ? "g_Tr, g_Dinv, g_z, g_gamma, g_V, g_zm" : "g_Tr, g_z, g_gamma, g_zm";
+  out.call_args["step32_args"] = ldlt ? "g_Tr, g_" + pivots + ", g_z, g_gamma, g_V, g_zm" : "g_Tr, g_z, g_gamma, g_zm";
   out.call_args["step33_args"] = ldlt ? "g_Tr, g_V, g_W" : "g_Tr, g_W";
   out.call_args["step35_args"] = "g_Tr, g_zm, g_z";
   out.ops = {{"3.1", k31.ops}, {"3.2", k32.ops}, {"3.3", k33.ops}, {"3.4", k34}, {"3.5", k35.ops}};

@@ -50,8 +50,16 @@ std::string operation_report(const ir::Robot& robot, const topology::Tree& tree,
          "| A | 975 | 165 | 708 | 172 | 834 | 680 | 145 | 192 | 3871 |\n"
          "| M | 975 | 165 | 804 | 172 | 1135 | 680 | 162 | 165 | 4258 |\n"
          "| D | 165 | 27 | 174 | 0 | 0 | 120 | 0 | 27 | 513 |\n"
-         "| SQ | 27 | 0 | 0 | 0 | 0 | 16 | 0 | 0 | 43 |\n\n"
-         "Where the paper divides (each entry of L by its pivot), the emitted code\n"
+         "| SQ | 27 | 0 | 0 | 0 | 0 | 16 | 0 | 0 | 43 |\n\n";
+  out += solver.divide
+             ? "This code was emitted with --divide: where the paper divides (each entry of\n"
+               "L by its pivot), so does the straight-line code; steps that run the\n"
+               "runtime's loops multiply by one reciprocal per pivot instead (jrgen's notes\n"
+               "name them).  Step 3.4 here also counts the two triangular solves for lambda,\n"
+               "which Table 2 leaves out (its 680 additions are the factorization alone).\n"
+               "The default arithmetic, without --divide, is described below.\n\n"
+             : "";
+  out += "Where the paper divides (each entry of L by its pivot), the emitted code\n"
          "multiplies by one reciprocal per pivot, so some of the paper's D appear here\n"
          "as M; Step 3.4 here also counts the two triangular solves for lambda, which\n"
          "Table 2 leaves out (its 680 additions are the factorization alone).  A dense\n"

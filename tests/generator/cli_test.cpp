@@ -921,6 +921,7 @@ struct ReportCase {
   std::vector<std::string> inputs;  // model path [--cuts path]
   std::string method;
   std::string name;
+  bool divide = false;  // --divide
 };
 
 std::vector<ReportCase> report_cases() {
@@ -938,6 +939,12 @@ std::vector<ReportCase> report_cases() {
                        m + "_cuts_" + method});
     for (const std::string m : {"fourbar", "slider_crank"})
       cases.push_back({{(kModelsDir / (m + ".urdf")).string()}, method, m + "_" + method});
+    // --divide: a tree with paired rows, the dense and the unrolled Step 3.4.
+    cases.push_back({{(kModelsDir / "legged30.urdf").string()}, method, "legged30_divide_" + method, true});
+    cases.push_back({{(kCliDir / "double_pendulum.urdf").string()}, method, "double_pendulum_divide_" + method, true});
+    cases.push_back({{(kModelsDir / "hmmwv14.urdf").string(), "--cuts", (kModelsDir / "hmmwv14.cuts.xml").string()},
+                     method, "hmmwv14_cuts_divide_" + method, true});
+    cases.push_back({{(kModelsDir / "fourbar.urdf").string()}, method, "fourbar_divide_" + method, true});
   }
   return cases;
 }
@@ -950,6 +957,7 @@ TEST_P(CliReport, CountsMatchTheEmittedCode) {
   const ReportCase& c = GetParam();
   std::vector<std::string> args = c.inputs;
   args.insert(args.end(), {"--method", c.method});
+  if (c.divide) args.push_back("--divide");
   {
     // Closed loops: run only once this version of jrgen generates them.
     ScratchDir probe("jrgen_report");
@@ -979,13 +987,23 @@ TEST_P(CliReport, CountsMatchTheEmittedCode) {
     expect_counts(g.table, step, rc.add, rc.mul, rc.div, rc.sqrt);
   }
   // One pivot per column: one reciprocal each, and one square root each
-  // for L L^T (none for the square-root-free L D L^T).
-  EXPECT_EQ(g.table.at("D", "1"), nv);
+  // for L L^T (none for the square-root-free L D L^T).  With --divide, one
+  // division per entry of L below the diagonal instead, and one per row in
+  // Step 4 (and in Step 2 for L L^T; L D L^T's Step 2 has a unit diagonal).
   EXPECT_EQ(g.table.at("SQ", "1"), c.method == "llt" ? nv : 0);
-  for (const char* step : {"2", "4"}) {
-    EXPECT_EQ(g.table.at("D", step), 0) << "Steps 2 and 4 multiply by the stored reciprocals";
-    EXPECT_EQ(g.table.at("SQ", step), 0);
+  if (c.divide) {
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(g.report, m, std::regex("stored entries of L = ([0-9]+)"))) << g.report;
+    EXPECT_EQ(g.table.at("D", "1"), std::stoll(m[1]) - nv);
+    EXPECT_EQ(g.table.at("D", "2"), c.method == "llt" ? nv : 0);
+    EXPECT_EQ(g.table.at("D", "4"), nv);
+    EXPECT_FALSE(contains(g.cpp, "Dinv[0] =")) << "--divide: no reciprocal pivots of M";
+  } else {
+    EXPECT_EQ(g.table.at("D", "1"), nv);
+    for (const char* step : {"2", "4"})
+      EXPECT_EQ(g.table.at("D", step), 0) << "Steps 2 and 4 multiply by the stored reciprocals";
   }
+  for (const char* step : {"2", "4"}) EXPECT_EQ(g.table.at("SQ", step), 0);
   EXPECT_TRUE(contains(g.report, "nv = " + std::to_string(nv))) << g.report;
 }
 
@@ -1068,6 +1086,22 @@ TEST(CliReportByHand, PendulumLDLT) {
 //            z[0] = z[0] * Dinv[0] - L[1] * z[1]            1 A, 2 M
 //                      Step 4: A 1, M 3.
 //   Total: A 3, M 7, D 2, SQ 0.
+// --divide, L L^T (each entry divided by its pivot; no Dinv):
+//   Step 1, column 0:  l = std::sqrt(d); L[0] = l; L[1] /= l     1 SQ, 1 D
+//           column 1:  d = L[2] - L[1] * L[1]                   1 A, 1 M
+//                      l = std::sqrt(d); L[2] = l               1 SQ
+//                      Step 1: A 1, M 1, D 1, SQ 2.
+//   Step 2:  z[0] /= L[0]; z[1] = (z[1] - L[1] * z[0]) / L[2]  1 A, 1 M, 2 D
+//   Step 4:  z[1] /= L[2]; z[0] = (z[0] - L[1] * z[1]) / L[0]  1 A, 1 M, 2 D
+//   Total: A 3, M 3, D 5, SQ 2.
+// --divide, L D L^T (L[1] stays unscaled, W[1,0] = L[1,0] D[0], until column 1):
+//   Step 1, column 1:  l0 = L[1] / L[0]                     1 D
+//                      d = L[2] - L[1] * l0                 1 A, 1 M
+//                      Step 1: A 1, M 1, D 1, SQ 0.
+//   Step 2:  z[1] = z[1] - L[1] * z[0]                      1 A, 1 M
+//   Step 4:  z[1] = z[1] / L[2]                             1 D
+//            z[0] = z[0] / L[0] - L[1] * z[1]               1 A, 1 M, 1 D
+//   Total: A 3, M 3, D 3, SQ 0.
 TEST(CliReportByHand, DoublePendulumLLT) {
   Generated g;
   ASSERT_NO_FATAL_FAILURE(generate({(kCliDir / "double_pendulum.urdf").string()}, &g));
@@ -1090,6 +1124,40 @@ TEST(CliReportByHand, DoublePendulumLDLT) {
   EXPECT_EQ(g.table.counts[1][8], 7);
   EXPECT_EQ(g.table.counts[2][8], 2);
   EXPECT_EQ(g.table.counts[3][8], 0);
+}
+
+TEST(CliReportByHand, DoublePendulumLLTDivide) {
+  Generated g;
+  ASSERT_NO_FATAL_FAILURE(generate({(kCliDir / "double_pendulum.urdf").string(), "--divide"}, &g));
+  expect_counts(g.table, "1", 1, 1, 1, 2);
+  expect_counts(g.table, "2", 1, 1, 2, 0);
+  expect_counts(g.table, "4", 1, 1, 2, 0);
+  EXPECT_EQ(g.table.counts[1][8], 3);
+  EXPECT_EQ(g.table.counts[2][8], 5);
+}
+
+TEST(CliReportByHand, DoublePendulumLDLTDivide) {
+  Generated g;
+  ASSERT_NO_FATAL_FAILURE(
+      generate({(kCliDir / "double_pendulum.urdf").string(), "--method", "ldlt", "--divide"}, &g));
+  expect_counts(g.table, "1", 1, 1, 1, 0);
+  expect_counts(g.table, "2", 1, 1, 0, 0);
+  expect_counts(g.table, "4", 1, 1, 2, 0);
+  EXPECT_EQ(g.table.counts[1][8], 3);
+  EXPECT_EQ(g.table.counts[2][8], 3);
+}
+
+// Issue 3's goal for the HMMWV: below the paper's Alg-S (Table 2) in every
+// row.  With the paper's arithmetic (--divide: it divides by pivots) and no
+// square roots (L D L^T), the emitted code is, although it also counts the two
+// triangular solves for lambda that Table 2 leaves out of Step 3.4.
+TEST(CliReportByHand, HmmwvLDLTDivideIsBelowAlgSInEveryRow) {
+  Generated g;
+  ASSERT_NO_FATAL_FAILURE(generate({(kModelsDir / "hmmwv14.urdf").string(), "--cuts",
+                                    (kModelsDir / "hmmwv14.cuts.xml").string(), "--method", "ldlt", "--divide"},
+                                   &g));
+  const long long alg_s[4] = {3871, 4258, 513, 43};
+  for (std::size_t r = 0; r < kRows.size(); ++r) EXPECT_LT(g.table.counts[r][8], alg_s[r]) << kRows[r];
 }
 
 // The same double pendulum with the runtime's table-driven Steps 1, 2, 4

@@ -34,6 +34,7 @@ inline v2d operator-(v2d a, v2d b) { return set2(a.x[0] - b.x[0], a.x[1] - b.x[1
 inline v2d operator*(v2d a, double s) { return set2(a.x[0] * s, a.x[1] * s); }
 inline v2d operator*(double s, v2d a) { return set2(s * a.x[0], s * a.x[1]); }
 inline v2d operator*(v2d a, v2d b) { return set2(a.x[0] * b.x[0], a.x[1] * b.x[1]); }
+inline v2d operator/(v2d a, double s) { return set2(a.x[0] / s, a.x[1] / s); }
 inline v2d& operator+=(v2d& a, v2d b) { return a = a + b; }
 inline v2d operator-(v2d a) { return set2(-a.x[0], -a.x[1]); }
 #endif
