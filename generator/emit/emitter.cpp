@@ -122,27 +122,11 @@ Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc,
       // eq. (26): L[k,j] = (M[k,j] - sum_i L[j,i] L[k,i]) / L[j,j]
       rows([&](std::size_t n) { return L(t, j, dj[n]); },
            divide ? Scale::divided_by("l") : Scale(fmt::format("Dinv[{}]", j)));
-    } else if (!divide) {
+    } else {
       // L D L^T: w_i = L[j,i] D[i]; D[j] = M[j,j] - sum_i w_i L[j,i];
       // L[k,j] = (M[k,j] - sum_i w_i L[k,i]) * Dinv[j].
-      std::vector<Term> dterms;
-      for (std::size_t n = 0; n < dj.size(); ++n) {
-        const int i = dj[n];
-        u.lines.push_back(in + fmt::format("const double w{} = {} * {};", n, L(t, j, i), L(t, i, i)));
-        ++u.statements;
-        k.ops.mul += 1;
-        dterms.push_back({fmt::format("w{}", n), L(t, j, i)});
-      }
-      k.update(u, in, "d", M(j, j), dterms, "", "const double ", "sd");
-      u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return not_positive_definite({}, d);",
-                                         M(j, j), j));
-      u.lines.push_back(in + diag + " = d;");
-      u.lines.push_back(in + fmt::format("Dinv[{}] = 1.0 / d;", j));
-      u.statements += 3;
-      k.ops.div += 1;
-      rows([&](std::size_t n) { return fmt::format("w{}", n); }, Scale(fmt::format("Dinv[{}]", j)));
-    } else {
-      // L D L^T, --divide, with W = L D (eq. 26 without the division): an
+      //
+      // --divide keeps W = L D instead (eq. 26 without the division): an
       // entry of column i stays unscaled, W[k,i], until column k is
       // reached, which needs L[k,i] = W[k,i] / D[i] (D[i] is known by then)
       // as well as W[k,i] itself:
@@ -150,16 +134,19 @@ Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc,
       //   W[k,j] = M[k,j] - sum_i W[k,i] l_i  (k an ancestor of j).
       // One division per entry of L and no products w_i (165 fewer on the
       // HMMWV), and column j's entries do not wait for its pivot.  Measured
-      // (six code placements each): with divisions, legged30 4.5% faster
-      // than the shape above; with reciprocals 10% slower (each entry is
-      // stored twice), so the default keeps the shape above.
+      // (docs/benchmarks.md, run 9): with divisions, legged30 4.5% faster
+      // than the products w_i; with reciprocals 10% slower (each entry is
+      // stored twice), so the default keeps the products.
+      const bool unscaled = divide;
       std::vector<Term> dterms;
       for (std::size_t n = 0; n < dj.size(); ++n) {
         const int i = dj[n];
-        u.lines.push_back(in + fmt::format("const double l{} = {} / {};", n, L(t, j, i), L(t, i, i)));
+        const std::string name = fmt::format("{}{}", unscaled ? "l" : "w", n);
+        u.lines.push_back(in + fmt::format("const double {} = {} {} {};", name, L(t, j, i), unscaled ? "/" : "*",
+                                           L(t, i, i)));
         ++u.statements;
-        k.ops.div += 1;
-        dterms.push_back({L(t, j, i), fmt::format("l{}", n)});
+        (unscaled ? k.ops.div : k.ops.mul) += 1;
+        dterms.push_back(unscaled ? Term{L(t, j, i), name} : Term{name, L(t, j, i)});
       }
       k.update(u, in, "d", M(j, j), dterms, "", "const double ", "sd");
       u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return not_positive_definite({}, d);",
@@ -171,11 +158,13 @@ Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc,
         ++u.statements;
         k.ops.div += 1;
       }
-      for (std::size_t n = 0; n < dj.size(); ++n) {
-        u.lines.push_back(in + fmt::format("{} = l{};", L(t, j, dj[n]), n));
-        ++u.statements;
-      }
-      rows([&](std::size_t n) { return fmt::format("l{}", n); }, Scale());
+      if (unscaled)
+        for (std::size_t n = 0; n < dj.size(); ++n) {
+          u.lines.push_back(in + fmt::format("{} = l{};", L(t, j, dj[n]), n));
+          ++u.statements;
+        }
+      rows([&](std::size_t n) { return fmt::format("{}{}", unscaled ? "l" : "w", n); },
+           unscaled ? Scale() : Scale(fmt::format("Dinv[{}]", j)));
     }
     u.lines.push_back("}");
   }

@@ -672,54 +672,41 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool un
           for (int i : common_left(r)) terms.push_back({Wat(j, i), Wat(r, i)});
           k34f.update(u, in, Wat(r, j), Wat(r, j), terms, pivot_scale(j));
         }
-      } else if (!divide) {
+      } else {
+        // L D L^T as Step 1's: products w_i = W[j,i] D[i], or with --divide
+        // an entry W[r,i] kept unscaled (L_W D_W) until column r, which
+        // divides it by its pivot and needs both forms.
+        const bool unscaled = divide;
         std::vector<Term> dterms;
         std::map<int, std::string> w;
         for (int i : left) {
-          const std::string name = fmt::format("w{}", w.size());
-          u.lines.push_back(in + fmt::format("const double {} = {} * {};", name, Wat(j, i), Wat(i, i)));
+          const std::string name = fmt::format("{}{}", unscaled ? "l" : "w", w.size());
+          u.lines.push_back(
+              in + fmt::format("const double {} = {} {} {};", name, Wat(j, i), unscaled ? "/" : "*", Wat(i, i)));
           ++u.statements;
-          k34f.ops.mul += 1;
+          (unscaled ? k34f.ops.div : k34f.ops.mul) += 1;
           w[i] = name;
-          dterms.push_back({name, Wat(j, i)});
-        }
-        k34f.update(u, in, "d", diag, dterms, "", "const double ", "sd");
-        u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return constraints_singular({}, d);", diag, sp.order[j]));
-        u.lines.push_back(in + diag + " = d;");
-        u.lines.push_back(in + fmt::format("Winv[{}] = 1.0 / d;", j));
-        u.statements += 3;
-        k34f.ops.div += 1;
-        for (int r : sp.pattern[j]) {
-          std::vector<Term> terms;
-          for (int i : common_left(r)) terms.push_back({w[i], Wat(r, i)});
-          k34f.update(u, in, Wat(r, j), Wat(r, j), terms, pivot_scale(j));
-        }
-      } else {
-        // --divide: as Step 1's L D L^T with --divide, an entry W[r,i]
-        // stays unscaled (L_W D_W) until column r, which divides it by its
-        // pivot and needs both forms (no products w_i).
-        std::vector<Term> dterms;
-        std::map<int, std::string> l;
-        for (int i : left) {
-          const std::string name = fmt::format("l{}", l.size());
-          u.lines.push_back(in + fmt::format("const double {} = {} / {};", name, Wat(j, i), Wat(i, i)));
-          ++u.statements;
-          k34f.ops.div += 1;
-          l[i] = name;
-          dterms.push_back({Wat(j, i), name});
+          dterms.push_back(unscaled ? Term{Wat(j, i), name} : Term{name, Wat(j, i)});
         }
         k34f.update(u, in, "d", diag, dterms, "", "const double ", "sd");
         u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return constraints_singular({}, d);", diag, sp.order[j]));
         u.lines.push_back(in + diag + " = d;");
         u.statements += 2;
-        for (const auto& [i, name] : l) {
-          u.lines.push_back(in + fmt::format("{} = {};", Wat(j, i), name));
+        if (!divide) {
+          u.lines.push_back(in + fmt::format("Winv[{}] = 1.0 / d;", j));
           ++u.statements;
+          k34f.ops.div += 1;
         }
+        if (unscaled)
+          for (const auto& [i, name] : w) {
+            u.lines.push_back(in + fmt::format("{} = {};", Wat(j, i), name));
+            ++u.statements;
+          }
         for (int r : sp.pattern[j]) {
           std::vector<Term> terms;
-          for (int i : common_left(r)) terms.push_back({Wat(r, i), l[i]});
-          if (!terms.empty()) k34f.update(u, in, Wat(r, j), Wat(r, j), terms, Scale());
+          for (int i : common_left(r)) terms.push_back(unscaled ? Term{Wat(r, i), w[i]} : Term{w[i], Wat(r, i)});
+          if (unscaled && terms.empty()) continue;  // stays unscaled until column r
+          k34f.update(u, in, Wat(r, j), Wat(r, j), terms, unscaled ? Scale() : pivot_scale(j));
         }
       }
       u.lines.push_back("}");
