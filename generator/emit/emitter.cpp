@@ -524,8 +524,11 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
   // (solve_augmented), which saves the separate pass copying M into L.
   const bool fused = unrolled && products <= kMaxFusedGatherProducts;
   Kernel k1, k1_dense, k2, k4;
+  // Step 3 first: whether it is table-driven decides what Step 1 writes.
+  LoopCode loops;
+  if (t.nc() > 0) loops = emit_loops(t, options.method, options.divide, unrolled, options.name_space);
   // --divide: Dinv only for a table-driven Step 3, whose loops read it.
-  const bool write_dinv = !options.divide || (unrolled && step3_table_driven(t));
+  const bool write_dinv = !options.divide || (unrolled && loops.table_driven);
   if (unrolled) {
     const std::vector<std::vector<int>> desc = t.descendants();
     k1 = step1(t, desc, options.method, options.divide, write_dinv);
@@ -760,7 +763,6 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
     v["step3"] = "";
     v["api"] = render_template("api_tree.cpp.tmpl", template_text("api_tree.cpp.tmpl"), api);
   } else {
-    LoopCode loops = emit_loops(t, options.method, options.divide, unrolled, options.name_space);
     if (options.divide && !loops.reciprocal_steps.empty())
       solver.notes.push_back("--divide: Step " + loops.reciprocal_steps + " multiplies by reciprocal pivots");
     v["constraint_tables"] = loops.tables;

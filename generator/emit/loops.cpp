@@ -345,11 +345,6 @@ long long step3_unroll_limit() { return limit_from_environment("JRGEN_STEP3_UNRO
 
 long long unroll_limit() { return limit_from_environment("JRGEN_UNROLL_LIMIT", kMaxUnrolledProducts); }
 
-bool step3_table_driven(const topology::Tree& t) {
-  if (t.nc() == 0) return false;
-  return step3_tables(t, kept_rows(t), schur_pattern(t)).products > step3_unroll_limit();
-}
-
 LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool unrolled_gathers,
                     const std::string& name_space) {
   LoopCode out;
@@ -435,6 +430,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool un
 
   if (!unrolled) {
     table_driven_step3(t, sp, tab, ldlt, name_space, out);
+    out.table_driven = true;
     out.reciprocal_steps = "3.1-3.5 (the runtime's table-driven loops)";
     return out;
   }

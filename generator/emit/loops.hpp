@@ -40,6 +40,8 @@ struct LoopCode {
   std::string gather;     ///< gather_Phiq: dense Phiq -> packed, non-zero entries only
   TemplateValues call_args;  ///< arguments of the Step 3 calls in api_loops.cpp.tmpl
   std::vector<StepOps> ops;  ///< "3.1" .. "3.5"
+  /// Step 3 calls the runtime's table-driven loops (which read Dinv).
+  bool table_driven = false;
   /// The parts of Step 3 that run the runtime's loops, which multiply by
   /// reciprocal pivots also under --divide (empty: none).
   std::string reciprocal_steps;
@@ -54,9 +56,6 @@ struct LoopCode {
 /// every shape of Step 1 leaves them (L[j,j], or D[j] with L D L^T).
 LoopCode emit_loops(const topology::Tree& tree, Method method, bool divide, bool unrolled_gathers,
                     const std::string& name_space);
-
-/// Whether emit_loops() would make Step 3 table-driven (its loops read Dinv).
-bool step3_table_driven(const topology::Tree& tree);
 
 /// kMaxUnrolledStep3Products, or (internal, for tests only: not part of the CLI)
 /// the value of the environment variable JRGEN_STEP3_UNROLL_LIMIT when it is a
