@@ -11,9 +11,10 @@
 # times (default 3) the page cache is dropped (root only: otherwise the
 # copies keep their first placement, which stderr says; -d 0: one round,
 # no drop) and every copy of every PROGRAM runs RUNS times (default 2),
-# round-robin, pinned to CPU (default 1) with taskset when it is installed.  Output, per PROGRAM: the
-# median over copies and drops of each copy's median, the fastest and
-# slowest copy, and how many copies ran more than 1.08 x the fastest.
+# round-robin, pinned to CPU (default 1) with taskset when it is installed.
+# Output, per PROGRAM: the median over copies and drops of each copy's
+# median, the fastest and slowest copy, and how many copies ran more than
+# 1.08 x the fastest.  A PROGRAM that fails or prints no number stops it.
 set -euo pipefail
 copies=10 drops=3 runs=2 cpu=1
 while getopts "n:d:r:c:h" opt; do
@@ -22,7 +23,7 @@ while getopts "n:d:r:c:h" opt; do
     d) drops="$OPTARG" ;;
     r) runs="$OPTARG" ;;
     c) cpu="$OPTARG" ;;
-    *) sed -n '2,16p' "$0"; [ "$opt" = h ] && exit 0 || exit 2 ;;
+    *) sed -n '2,17p' "$0"; [ "$opt" = h ] && exit 0 || exit 2 ;;
   esac
 done
 shift $((OPTIND - 1))
@@ -63,7 +64,17 @@ for d in $(seq "$rounds"); do
   for _ in $(seq "$runs"); do
     for c in $(seq "$copies"); do
       for k in $(seq 0 $(($# - 1))); do
-        t="$("${pin[@]}" "$work/p${k}_c$c" | tail -n 1)"
+        k_arg=$((k + 1))
+        prog="${!k_arg}"
+        if ! out="$("${pin[@]}" "$work/p${k}_c$c")"; then
+          echo "placement_lottery.sh: $prog failed (copy $c)" >&2
+          exit 1
+        fi
+        t="$(printf '%s\n' "$out" | tail -n 1)"
+        if ! [[ "$t" =~ ^[0-9]+([.][0-9]*)?([eE][-+]?[0-9]+)?$ ]]; then
+          echo "placement_lottery.sh: $prog printed '$t', not a time (copy $c)" >&2
+          exit 1
+        fi
         echo "$k $d.$c $t" >> "$work/times"
       done
     done

@@ -2,7 +2,8 @@
 # ctest placement_lottery_test: tests/bench/placement_lottery.sh on two tiny
 # programs whose "times" are known: the medians, the fastest and slowest copy
 # and the count of slow copies must come out as computed by hand, and bad
-# arguments must fail with one line on stderr.
+# arguments, a failing program and one that prints no number must fail with
+# one line on stderr.
 set -euo pipefail
 script="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)/placement_lottery.sh"
 work="$(mktemp -d)"
@@ -21,4 +22,11 @@ if "$script" -n x "$work/fast" 2> "$work/err"; then fail "-n x accepted"; fi
 [ "$(wc -l < "$work/err")" = 1 ] || fail "-n x: not one line on stderr"
 if "$script" "$work/missing" 2> "$work/err"; then fail "missing program accepted"; fi
 grep -q "not an executable file" "$work/err" || fail "missing program: wrong message"
+printf '#!/bin/sh\nexit 3\n' > "$work/broken"
+printf '#!/bin/sh\necho fast\n' > "$work/words"
+chmod +x "$work/broken" "$work/words"
+if "$script" -n 1 -d 0 -r 1 "$work/fast" "$work/broken" > /dev/null 2> "$work/err"; then fail "failing program accepted"; fi
+grep -q "broken failed (copy 1)" "$work/err" || fail "failing program: wrong message"
+if "$script" -n 1 -d 0 -r 1 "$work/words" > /dev/null 2> "$work/err"; then fail "non-number accepted"; fi
+grep -q "printed 'fast', not a time" "$work/err" || fail "non-number: wrong message"
 echo "placement_lottery_test: ok"
