@@ -63,9 +63,8 @@ for d in $(seq "$rounds"); do
   if [ "$can_drop" = 1 ]; then sync; echo 3 > /proc/sys/vm/drop_caches; fi
   for _ in $(seq "$runs"); do
     for c in $(seq "$copies"); do
-      for k in $(seq 0 $(($# - 1))); do
-        k_arg=$((k + 1))
-        prog="${!k_arg}"
+      k=0
+      for prog in "$@"; do
         if ! out="$("${pin[@]}" "$work/p${k}_c$c")"; then
           echo "placement_lottery.sh: $prog failed (copy $c)" >&2
           exit 1
@@ -76,6 +75,7 @@ for d in $(seq "$rounds"); do
           exit 1
         fi
         echo "$k $d.$c $t" >> "$work/times"
+        k=$((k + 1))
       done
     done
   done
