@@ -28,6 +28,14 @@ using testing::relative_error;
 class GeneratedLoops : public ::testing::TestWithParam<GeneratedSolver> {
  protected:
   void SetUp() override {
+#ifdef JRGEN_TEST_REQUIRES_X86_64_V4
+    // generated_avx512_test: the solvers were compiled with -march=x86-64-v4.
+    __builtin_cpu_init();
+    if (!(__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
+          __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq") &&
+          __builtin_cpu_supports("avx512cd")))
+      GTEST_SKIP() << "this processor lacks AVX-512 (x86-64-v4)";
+#endif
     const GeneratedSolver& s = GetParam();
     const testing::ModelCase& c = testing::find_model_case(s.model_case);
     robot_ = testing::read_model_case(c);

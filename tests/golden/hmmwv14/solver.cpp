@@ -35,6 +35,15 @@
 //     24 xxxxxxxxxxxxxxxxxxxxxxxxx  chassis_floating
 //     25 xxxxxxxxxxxxxxxxxxxxxxxxxx  chassis_floating
 //     26 xxxxxxxxxxxxxxxxxxxxxxxxxxx  chassis_floating
+// GCC 12.2 (Debian bookworm's g++) miscompiles sums of products such as the
+// rows of Step 3.5 when its SLP vectorizer may use 512-bit vectors (AVX-512
+// with 512-bit tuning: -march=native on AMD Zen 5, -march=x86-64-v4): qdd
+// comes out wrong, with no warning and no NaN.  256-bit vectors are not
+// affected and run as fast here, so GCC gets at most 256-bit vectors in this
+// file (docs/benchmarks.md run 11; ctest generated_avx512_test).
+#if defined(__GNUC__) && !defined(__clang__) && defined(__AVX512F__)
+#pragma GCC target("prefer-vector-width=256")
+#endif
 #include "solver.hpp"
 
 #include <cmath>
