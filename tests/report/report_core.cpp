@@ -445,6 +445,7 @@ int run(int argc, char** argv, const ModelInfo& info, const GeneratedApi& llt, c
   const int nv = p.nv, nc = p.nc;
   char buf[512];
   benchmark::AddCustomContext("model", info.name);
+  benchmark::AddCustomContext("compile_flags", JRGEN_REPORT_COMPILE_FLAGS);
   std::snprintf(buf, sizeof buf, "%d %d %d %d", p.nq, nv, nc, p.K);
   benchmark::AddCustomContext("sizes_nq_nv_nc_K", buf);
   std::snprintf(buf, sizeof buf, "%.3e", p.cond_A);

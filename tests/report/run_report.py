@@ -97,6 +97,7 @@ def parse(name, data):
     m = {"name": name, "nv": nv, "nc": nc, "K": K, "cond_A": float(ctx["cond1_A"]),
          "cond_M": float(ctx["cond1_M"]), "cond_W": float(ctx["cond1_W"]), "state": ctx.get("state", ""),
          "mujoco_check": ctx.get("mujoco_check", ""), "checks": ctx.get("checks", ""),
+         "compile_flags": ctx.get("compile_flags", "unknown"),
          "methods": {}, "steps": {}, "prefix": {}}
     for b in data["benchmarks"]:
         if b.get("aggregate_name") != "median":
@@ -239,6 +240,9 @@ def write_report(models, out, args, failures, notes, elapsed):
       f"commit {commit or 'unknown'}; {cpu}, {os.cpu_count()} logical CPUs, {platform.platform()}; "
       f"load average {os.getloadavg()[0]:.2f}; "
       + ("formatted again from an earlier run's JSON.\n" if args.reuse else f"total run time {elapsed:.0f} s.\n"))
+    flags = sorted({m["compile_flags"] for m in models})
+    w(f"Compiled with {'; '.join(f'`{f}`' for f in flags) or 'unknown flags'} (every timed method but the "
+      "prebuilt libraries: LAPACKE/OpenBLAS, UMFPACK, MuJoCo).\n")
     w("Every method solves eq. (17) on the same M, Q = tau - h, Phiq, gamma of one assembled state; "
       "times are medians of repeated Google Benchmark runs in microseconds; errors are relative to an "
       "extended-precision solve of the same system (docs/report.md).\n")
