@@ -139,6 +139,23 @@ inline void axpy2_sub(double* __restrict x, const double* __restrict y, double f
   if (r < n) x[r] = (x[r] - y[r] * f) - z[r] * g;
 }
 
+// Two columns at once: x0[0..n) = (x0 - y f0) - z g0 and
+// x1[0..n) = (x1 - y f1) - z g1, by pairs, each pair of y and z loaded once
+// for both (the same arithmetic per entry as axpy2_sub).
+inline void axpy2x2_sub(double* __restrict x0, double* __restrict x1, const double* __restrict y,
+                        const double* __restrict z, double f0, double g0, double f1, double g1, std::int32_t n) {
+  std::int32_t r = 0;
+  for (; r + 2 <= n; r += 2) {
+    const v2d yr = load2(y + r), zr = load2(z + r);
+    store2(x0 + r, (load2(x0 + r) - yr * f0) - zr * g0);
+    store2(x1 + r, (load2(x1 + r) - yr * f1) - zr * g1);
+  }
+  if (r < n) {
+    x0[r] = (x0[r] - y[r] * f0) - z[r] * g0;
+    x1[r] = (x1[r] - y[r] * f1) - z[r] * g1;
+  }
+}
+
 // x[0..n) *= f, by pairs.
 inline void scale(double* __restrict x, double f, std::int32_t n) {
   std::int32_t r = 0;
@@ -218,7 +235,7 @@ inline void schur_dense_gram_loops(const double* __restrict A, const double* __r
 // Right-looking, in the order of L D L^T: pivot d_j = w_jj, then every
 // later column s gets w[r, s] -= w[r, j] * f_s with f_s = w[s, j] / d_j
 // (one multiplication by 1/d_j), two pivot columns per pass over the
-// trailing columns.  The next pivots are carried in registers (d0 of the
+// trailing columns, taken two at a time.  The next pivots are carried in registers (d0 of the
 // next pass is the first trailing diagonal, d1 the next column's diagonal),
 // so the serial chain from one pivot to the next is one division, two
 // multiplications and a subtraction, without a store and a reload; the
@@ -272,21 +289,36 @@ inline std::int32_t schur_dense_factor_loops(double* W, double* Winv, Size m, bo
     if (!take_pivot(d1, j + 1)) return j + 1;
     const double d1inv = Winv[j + 1];
     if (kForward && len > 2) axpy2_sub(z + j + 2, cj + 2, g0, c1 + 1, z[j + 1] * d1inv, len - 2);
+    // The trailing columns two at a time (s, s + 1): the diagonal entry of
+    // column s first (for s = 2, the next pass's pivot), then the rows both
+    // columns share, each pair of entries of the pivot columns loaded once.
     double* cs = c1 + (len - 1);  // column j + s from its diagonal
-    for (std::int32_t s = 2; s < len; ++s) {
+    std::int32_t s = 2;
+    for (; s + 1 < len; s += 2) {
+      const std::int32_t n = len - s;  // entries of column s; column s + 1 has n - 1
       const double f0 = cj[s] * d0inv, f1 = c1[s - 1] * d1inv;
-      if (s == 2) {
-        d0 = (cs[0] - cj[2] * f0) - c1[1] * f1;  // the next pass's pivot
-        cs[0] = d0;
-        axpy2_sub(cs + 1, cj + 3, f0, c1 + 2, f1, len - 3);
-      } else {
-        axpy2_sub(cs, cj + s, f0, c1 + (s - 1), f1, len - s);
+      const double h0 = cj[s + 1] * d0inv, h1 = c1[s] * d1inv;
+      const double diag = (cs[0] - cj[s] * f0) - c1[s - 1] * f1;
+      cs[0] = diag;
+      if (s == 2) d0 = diag;  // the next pass's pivot
+      axpy2x2_sub(cs + 1, cs + n, cj + s + 1, c1 + s, f0, f1, h0, h1, n - 1);
+      if (ldlt) {
+        cj[s] = f0;
+        c1[s - 1] = f1;
+        cj[s + 1] = h0;
+        c1[s] = h1;
       }
+      cs += 2 * n - 1;
+    }
+    if (s < len) {  // the last trailing column alone: its diagonal only
+      const double f0 = cj[s] * d0inv, f1 = c1[s - 1] * d1inv;
+      const double diag = (cs[0] - cj[s] * f0) - c1[s - 1] * f1;
+      cs[0] = diag;
+      if (s == 2) d0 = diag;
       if (ldlt) {
         cj[s] = f0;
         c1[s - 1] = f1;
       }
-      cs += len - s;
     }
     cj = c1 + (len - 1);
   }
