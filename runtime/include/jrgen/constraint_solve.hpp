@@ -235,15 +235,16 @@ inline void schur_dense_gram_loops(const double* __restrict A, const double* __r
 // Right-looking, in the order of L D L^T: pivot d_j = w_jj, then every
 // later column s gets w[r, s] -= w[r, j] * f_s with f_s = w[s, j] / d_j
 // (one multiplication by 1/d_j), two pivot columns per pass over the
-// trailing columns, taken two at a time.  The next pivots are carried in registers (d0 of the
-// next pass is the first trailing diagonal, d1 the next column's diagonal),
-// so the serial chain from one pivot to the next is one division, two
-// multiplications and a subtraction, without a store and a reload; the
-// square root of L L^T and its scaling of column j (L[r, j] = w[r, j] /
-// sqrt(d_j)) come after the elimination, off that chain.  With L D L^T the
-// f_s are the factor's entries themselves and are stored in place of w.
-// Winv holds the original diagonal until pivot j replaces it by 1 / d_j
-// (and, L L^T, then 1 / sqrt(d_j)).
+// trailing columns, which are updated two at a time.  The next pivots are
+// carried in registers (d0 of the next pass is the first trailing
+// diagonal, d1 the next column's diagonal), so the serial chain from one
+// pivot to the next is one division, two multiplications and a
+// subtraction, without a store and a reload; the square root of L L^T and
+// its scaling of column j (L[r, j] = w[r, j] / sqrt(d_j)) come after the
+// elimination, off that chain.  With L D L^T the f_s are the factor's
+// entries themselves and are stored in place of w.  Winv holds the
+// original diagonal until pivot j replaces it by 1 / d_j (and, L L^T, then
+// 1 / sqrt(d_j)).
 //
 // kForward: z (elimination order) is forward-substituted in the same
 // passes: u_j = z_j is final with pivot j, and the rows below get
