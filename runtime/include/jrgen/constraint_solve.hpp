@@ -293,33 +293,27 @@ inline std::int32_t schur_dense_factor_loops(double* W, double* Winv, Size m, bo
     // The trailing columns two at a time (s, s + 1): the diagonal entry of
     // column s first (for s = 2, the next pass's pivot), then the rows both
     // columns share, each pair of entries of the pivot columns loaded once.
+    // The last column alone (len - 2 odd) has its diagonal entry only.
     double* cs = c1 + (len - 1);  // column j + s from its diagonal
-    std::int32_t s = 2;
-    for (; s + 1 < len; s += 2) {
+    for (std::int32_t s = 2; s < len; s += 2) {
       const std::int32_t n = len - s;  // entries of column s; column s + 1 has n - 1
       const double f0 = cj[s] * d0inv, f1 = c1[s - 1] * d1inv;
-      const double h0 = cj[s + 1] * d0inv, h1 = c1[s] * d1inv;
       const double diag = (cs[0] - cj[s] * f0) - c1[s - 1] * f1;
       cs[0] = diag;
       if (s == 2) d0 = diag;  // the next pass's pivot
-      axpy2x2_sub(cs + 1, cs + n, cj + s + 1, c1 + s, f0, f1, h0, h1, n - 1);
+      if (n > 1) {
+        const double h0 = cj[s + 1] * d0inv, h1 = c1[s] * d1inv;
+        axpy2x2_sub(cs + 1, cs + n, cj + s + 1, c1 + s, f0, f1, h0, h1, n - 1);
+        if (ldlt) {
+          cj[s + 1] = h0;
+          c1[s] = h1;
+        }
+      }
       if (ldlt) {
         cj[s] = f0;
         c1[s - 1] = f1;
-        cj[s + 1] = h0;
-        c1[s] = h1;
       }
       cs += 2 * n - 1;
-    }
-    if (s < len) {  // the last trailing column alone: its diagonal only
-      const double f0 = cj[s] * d0inv, f1 = c1[s - 1] * d1inv;
-      const double diag = (cs[0] - cj[s] * f0) - c1[s - 1] * f1;
-      cs[0] = diag;
-      if (s == 2) d0 = diag;
-      if (ldlt) {
-        cj[s] = f0;
-        c1[s - 1] = f1;
-      }
     }
     cj = c1 + (len - 1);
   }
