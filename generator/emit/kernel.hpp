@@ -54,11 +54,12 @@ inline constexpr long long kMaxGatherTable = 1 << 20;
 // common dofs (T^T T dense), get the runtime's dense loops for that part of
 // Steps 3.3 and 3.4 (docs/benchmarks.md, run 4).
 inline constexpr int kMinDenseSchurRows = 8;
-// Up to this many rows the dense Steps 3.3 and 3.4 call the runtime's loops
-// with the sizes as template arguments (jr::schur_dense_gram_fixed,
-// jr::schur_dense_factor_forward_fixed, jr::schur_dense_backward_fixed),
-// whose trip counts the compiler then knows; larger dense parts keep the
-// loops with the sizes at run time.
+// Up to this many rows the dense Steps 3.3 and 3.4 keep W square and call
+// the runtime's loops with the size as a template argument
+// (jr::schur_square_gram_fixed, jr::schur_square_factor_forward_fixed,
+// jr::schur_square_backward_fixed): whole pairs of rows, every trip count
+// known to the compiler; larger dense parts keep W packed by columns and the
+// loops with the sizes at run time (jr::schur_dense_*).
 inline constexpr int kMaxFixedDenseSchur = 32;
 // Solvers with at least this many additions and multiplications (all steps,
 // as --report counts them) keep each step in its own function; below, the

@@ -412,23 +412,29 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool un
   }
 
   // ---- workspace ----
-  out.workspace = fmt::format(
-      "thread_local jr::BodyMotion g_motion[{}];\n"
-      "{}"
-      "thread_local double g_gamma[{}];\n"
-      "thread_local double g_W[{}];     // T^T T packed (fill included), factored in place\n"
-      "thread_local double g_Winv[{}];  // inverse pivots of T^T T\n"
-      "thread_local double g_zm[{}];    // z_m (Step 3.2), then lambda (Step 3.4)",
-      nb,
-      (unrolled ? fmt::format("thread_local double g_T[{0}];     // packed Phiq, cut row by cut row\n"
-                              "thread_local double g_Tr[{0}];    // T = L^-1 Phiq^T by dofs (Step 3.1)\n",
-                              phiq_nnz)
-                : fmt::format("thread_local double g_T[{}];     // packed Phiq, overwritten by T (Step 3.1)\n",
-                              phiq_nnz)) +
-          (ldlt ? fmt::format("thread_local double g_V[{}];     // D^-1 U (Step 3.2)\n", phiq_nnz) : ""),
-      m, sp.nnz(), m, m);
+  // w_declaration: the line of g_W, which depends on the layout of W.
+  auto set_workspace = [&](const std::string& w_declaration) {
+    out.workspace = fmt::format(
+        "thread_local jr::BodyMotion g_motion[{}];\n"
+        "{}"
+        "thread_local double g_gamma[{}];\n"
+        "{}"
+        "thread_local double g_Winv[{}];  // inverse pivots of T^T T\n"
+        "thread_local double g_zm[{}];    // z_m (Step 3.2), then lambda (Step 3.4)",
+        nb,
+        (unrolled ? fmt::format("thread_local double g_T[{0}];     // packed Phiq, cut row by cut row\n"
+                                "thread_local double g_Tr[{0}];    // T = L^-1 Phiq^T by dofs (Step 3.1)\n",
+                                phiq_nnz)
+                  : fmt::format("thread_local double g_T[{}];     // packed Phiq, overwritten by T (Step 3.1)\n",
+                                phiq_nnz)) +
+            (ldlt ? fmt::format("thread_local double g_V[{}];     // D^-1 U (Step 3.2)\n", phiq_nnz) : ""),
+        m, w_declaration, m, m);
+  };
+  const std::string packed_W = fmt::format(
+      "thread_local double g_W[{}];     // T^T T packed (fill included), factored in place\n", sp.nnz());
 
   if (!unrolled) {
+    set_workspace(packed_W);
     table_driven_step3(t, sp, tab, ldlt, name_space, out);
     out.table_driven = true;
     out.reciprocal_steps = "3.1-3.5 (the runtime's table-driven loops)";
@@ -467,9 +473,21 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool un
   const bool dense_schur = dense_dofs > 0;
   const int dense_last = dense_first + dense_dofs;  // one past
   if (dense_schur)
-    for (int j = 0; j < m; ++j)  // the dense packed layout of schur_dense_*
+    for (int j = 0; j < m; ++j)  // every entry of the lower triangle (the dense kernels' layouts)
       if (sp.col_start[j] != j * m - j * (j - 1) / 2 || static_cast<int>(sp.pattern[j].size()) != m - 1 - j)
         throw std::logic_error("emit_loops: T^T T not dense although every row shares a dof");
+  // Up to kMaxFixedDenseSchur rows the dense W is kept square (column j from
+  // j * ld, ld = m rounded up to even: the runtime's schur_square_* loops
+  // then run over aligned pairs of rows only); otherwise packed by columns.
+  const bool square_W = dense_schur && m <= kMaxFixedDenseSchur;
+  const int ld = m + (m & 1);
+  auto W_at = [&](int row, int col) {
+    return fmt::format("W[{}]", square_W ? row + ld * col : sp.position(row, col));
+  };
+  set_workspace(square_W ? fmt::format("thread_local double g_W[{}];     // T^T T, square ({} x {}, lower triangle), "
+                                       "factored in place\n",
+                                       ld * ld, ld, ld)
+                         : packed_W);
 
   // ---- Step 3.1: L T = Phiq^T, only the rows of Lemma 3 ----
   Kernel k31;
@@ -567,9 +585,8 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool un
                                   dof_label(t, dense_first + dense_dofs - 1)));
     const std::string A = fmt::format("{} + {}", ldlt ? "V" : "T", td.start[dense_first]);
     const std::string B = fmt::format("T + {}", td.start[dense_first]);
-    u.lines.push_back(m <= kMaxFixedDenseSchur
-                          ? fmt::format("jr::schur_dense_gram_fixed<{}, {}>({}, {}, W);", dense_dofs, m, A, B)
-                          : fmt::format("jr::schur_dense_gram({}, {}, {}, {}, W);", A, B, dense_dofs, m));
+    u.lines.push_back(square_W ? fmt::format("jr::schur_square_gram_fixed<{}, {}>({}, {}, W);", dense_dofs, m, A, B)
+                               : fmt::format("jr::schur_dense_gram({}, {}, {}, {}, W);", A, B, dense_dofs, m));
     ++u.statements;
     const long long entries = static_cast<long long>(m) * (m + 1) / 2;
     k33.ops.mul += entries * dense_dofs;
@@ -593,15 +610,15 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool un
     };
     if (dense_schur) {
       // The products outside the dense part, added to it.
-      k33.add_sum(u, "", fmt::format("W[{}]", sp.position(j, j)), entry(j));
-      for (int r : sp.pattern[j]) k33.add_sum(u, "", fmt::format("W[{}]", sp.position(r, j)), entry(r));
+      k33.add_sum(u, "", W_at(j, j), entry(j));
+      for (int r : sp.pattern[j]) k33.add_sum(u, "", W_at(r, j), entry(r));
       if (u.statements == 0) k33.units.pop_back();  // nothing outside the dense part
       continue;
     }
-    k33.assign_sum(u, "", fmt::format("W[{}]", sp.position(j, j)), entry(j), "");
+    k33.assign_sum(u, "", W_at(j, j), entry(j), "");
     for (std::size_t e = 0; e < sp.pattern[j].size(); ++e) {
       const int r = sp.pattern[j][e];
-      const std::string target = fmt::format("W[{}]", sp.position(r, j));
+      const std::string target = W_at(r, j);
       if (sp.structural[j][e]) {
         k33.assign_sum(u, "", target, entry(r), "");
       } else {
@@ -616,7 +633,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool un
   // Column j's entries are scaled by Winv[j] = 1 / pivot, or with --divide
   // divided by the pivot W[j, j] itself.
   auto pivot_scale = [&](int j) {
-    return divide ? Scale::divided_by(fmt::format("W[{}]", sp.position(j, j))) : Scale(fmt::format("Winv[{}]", j));
+    return divide ? Scale::divided_by(W_at(j, j)) : Scale(fmt::format("Winv[{}]", j));
   };
   if (dense_schur) {
     out.reciprocal_steps = "3.4 (the runtime's dense kernels)";
@@ -642,9 +659,8 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool un
       u.lines.push_back(fmt::format("// column {}: {}", j, row_label(t, row_at(j))));
       u.lines.push_back("{");
       const std::string in = "  ";
-      const std::string diag = fmt::format("W[{}]", sp.position(j, j));
+      const std::string diag = W_at(j, j);
       const std::vector<int>& left = sp.row_list[j];
-      auto Wat = [&](int r, int c) { return fmt::format("W[{}]", sp.position(r, c)); };
       auto common_left = [&](int r) {
         std::vector<int> c;
         std::set_intersection(left.begin(), left.end(), sp.row_list[r].begin(), sp.row_list[r].end(), std::back_inserter(c));
@@ -652,7 +668,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool un
       };
       if (!ldlt) {
         std::vector<Term> sq;
-        for (int i : left) sq.push_back({Wat(j, i), Wat(j, i)});
+        for (int i : left) sq.push_back({W_at(j, i), W_at(j, i)});
         k34f.update(u, in, "d", diag, sq, "", "const double ", "sd");
         u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return constraints_singular({}, d);", diag, sp.order[j]));
         u.lines.push_back(in + diag + " = std::sqrt(d);");
@@ -665,8 +681,8 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool un
         }
         for (int r : sp.pattern[j]) {
           std::vector<Term> terms;
-          for (int i : common_left(r)) terms.push_back({Wat(j, i), Wat(r, i)});
-          k34f.update(u, in, Wat(r, j), Wat(r, j), terms, pivot_scale(j));
+          for (int i : common_left(r)) terms.push_back({W_at(j, i), W_at(r, i)});
+          k34f.update(u, in, W_at(r, j), W_at(r, j), terms, pivot_scale(j));
         }
       } else {
         // L D L^T as Step 1's: products w_i = W[j,i] D[i], or with --divide
@@ -678,11 +694,11 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool un
         for (int i : left) {
           const std::string name = fmt::format("{}{}", unscaled ? "l" : "w", w.size());
           u.lines.push_back(
-              in + fmt::format("const double {} = {} {} {};", name, Wat(j, i), unscaled ? "/" : "*", Wat(i, i)));
+              in + fmt::format("const double {} = {} {} {};", name, W_at(j, i), unscaled ? "/" : "*", W_at(i, i)));
           ++u.statements;
           (unscaled ? k34f.ops.div : k34f.ops.mul) += 1;
           w[i] = name;
-          dterms.push_back(unscaled ? Term{Wat(j, i), name} : Term{name, Wat(j, i)});
+          dterms.push_back(unscaled ? Term{W_at(j, i), name} : Term{name, W_at(j, i)});
         }
         k34f.update(u, in, "d", diag, dterms, "", "const double ", "sd");
         u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return constraints_singular({}, d);", diag, sp.order[j]));
@@ -695,14 +711,14 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool un
         }
         if (unscaled)
           for (const auto& [i, name] : w) {
-            u.lines.push_back(in + fmt::format("{} = {};", Wat(j, i), name));
+            u.lines.push_back(in + fmt::format("{} = {};", W_at(j, i), name));
             ++u.statements;
           }
         for (int r : sp.pattern[j]) {
           std::vector<Term> terms;
-          for (int i : common_left(r)) terms.push_back(unscaled ? Term{Wat(r, i), w[i]} : Term{w[i], Wat(r, i)});
+          for (int i : common_left(r)) terms.push_back(unscaled ? Term{W_at(r, i), w[i]} : Term{w[i], W_at(r, i)});
           if (unscaled && terms.empty()) continue;  // stays unscaled until column r
-          k34f.update(u, in, Wat(r, j), Wat(r, j), terms, unscaled ? Scale() : pivot_scale(j));
+          k34f.update(u, in, W_at(r, j), W_at(r, j), terms, unscaled ? Scale() : pivot_scale(j));
         }
       }
       u.lines.push_back("}");
@@ -710,7 +726,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool un
     for (int j = 0; j < m; ++j) {  // forward
       std::vector<Term> terms;
       for (int i : sp.row_list[j])
-        terms.push_back({fmt::format("W[{}]", sp.position(j, i)), fmt::format("zm[{}]", sp.order[i])});
+        terms.push_back({W_at(j, i), fmt::format("zm[{}]", sp.order[i])});
       if (ldlt && terms.empty()) continue;
       Kernel::Unit& u = k34s.unit();
       u.lines.push_back(fmt::format("// forward, row {}", j));
@@ -722,7 +738,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool un
       // Farthest rows first: the position solved just before enters last, so
       // the serial chain of the back substitution is one product per row.
       for (auto r = sp.pattern[j].rbegin(); r != sp.pattern[j].rend(); ++r)
-        terms.push_back({fmt::format("W[{}]", sp.position(*r, j)), fmt::format("zm[{}]", sp.order[*r])});
+        terms.push_back({W_at(*r, j), fmt::format("zm[{}]", sp.order[*r])});
       Kernel::Unit& u = k34s.unit();
       u.lines.push_back(fmt::format("// backward, row {}", j));
       const std::string z = fmt::format("zm[{}]", sp.order[j]);
@@ -790,20 +806,23 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool un
   s += k33.functions(
       "step33_TtT", ldlt ? "const double* T, const double* V, double* W" : "const double* T, double* W",
       ldlt ? "T, V, W" : "T, W", false,
-      fmt::format("---- Step 3.3: W = {} (m = {}), packed by columns. ----\n"
+      fmt::format("---- Step 3.3: W = {} (m = {}), {}. ----\n"
                   "Entry (r, s) is computed only when the cuts of rows r and s share a dof;\n"
                   "entries that are zero here but filled by Step 3.4 are set to 0.\n"
                   "Ops: {} add, {} mul, {} div.",
-                  ldlt ? "U^T D^-1 U = V^T U" : "T^T T", m, k33.ops.add, k33.ops.mul, k33.ops.div));
+                  ldlt ? "U^T D^-1 U = V^T U" : "T^T T", m,
+                  square_W ? fmt::format("square: entry (r, s) at W[r + {} s]", ld) : "packed by columns", k33.ops.add,
+                  k33.ops.mul, k33.ops.div));
   s += "\n\n";
   OpCount k34 = k34f.ops;
   k34 += k34s.ops;
   if (dense_schur) {
-    // Up to kMaxFixedDenseSchur rows with m a compile-time constant (the
-    // _fixed variants: every trip count known), beyond as runtime loops.
+    // Up to kMaxFixedDenseSchur rows the square layout with m a compile-time
+    // constant (the schur_square_*_fixed loops: every trip count known),
+    // beyond the packed layout and runtime loops.
     auto call = [&](const char* kernel) {
-      return m <= kMaxFixedDenseSchur ? fmt::format("jr::{}_fixed<{}>(W, Winv, ", kernel, m)
-                                      : fmt::format("jr::{}(W, Winv, {}, ", kernel, m);
+      return square_W ? fmt::format("jr::schur_square_{}_fixed<{}>(W, Winv, ", kernel, m)
+                      : fmt::format("jr::schur_dense_{}(W, Winv, {}, ", kernel, m);
     };
     s += fmt::format(
         "// ---- Step 3.4 (a): factor W = {0} in place (dense, m = {1}: the runtime's loops), ----\n"
@@ -820,8 +839,8 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool un
         "  {11}kSchurOrder, {6}, g_zw, zm);\n"
         "}}",
         ldlt ? "L_W D_W L_W^T" : "L_W L_W^T", m, k34f.ops.add, k34f.ops.mul, k34f.ops.div, k34f.ops.sqrt,
-        ldlt ? "true" : "false", k34s.ops.add, k34s.ops.mul, k34s.ops.div, call("schur_dense_factor_forward"),
-        call("schur_dense_backward"));
+        ldlt ? "true" : "false", k34s.ops.add, k34s.ops.mul, k34s.ops.div, call("factor_forward"),
+        call("backward"));
   } else {
     s += k34f.functions(
         "step34_factor", "double* W, double* Winv", "W, Winv", true,
@@ -851,7 +870,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool un
                  fmt::format("\n// Elimination position of Step 3.4 -> kept row (user order).\n"
                              "constexpr std::int32_t kSchurOrder[{}] = {{ {} }};",
                              m, join_ints(sp.order));
-    out.workspace += fmt::format("\nthread_local double g_zw[{}];    // forward solution, then lambda, elimination order (Step 3.4)", m);
+    out.workspace += fmt::format("\nthread_local double g_zw[{}];    // forward solution, then lambda, elimination order (Step 3.4)", square_W ? ld : m);
   }
   out.step3 = s;
   out.call_args["step31_args"] = ldlt ? "g_L, g_T, g_Tr" : "g_L, g_Dinv, g_T, g_Tr";

@@ -212,6 +212,9 @@ TEST(GeneratedLoopsDimensions, PaperAndExampleModels) {
     } else if (s.model_case == "loops_fourbar" || s.model_case == "loops_slider_crank") {
       EXPECT_EQ(s.nv, 3);
       EXPECT_EQ(s.nc, 2);  // a 3-D revolute cut: 3 of its 5 rows are dropped
+    } else if (s.model_case == "loops_hmmwv14_m15") {
+      EXPECT_EQ(s.nv, 27);
+      EXPECT_EQ(s.nc, 15);  // one distance cut fewer
     } else if (s.model_case == "loops_stewart") {
       EXPECT_EQ(s.nv, 24);
       EXPECT_EQ(s.nc, 18);

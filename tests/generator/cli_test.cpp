@@ -759,16 +759,19 @@ struct Recount {
 //     per row below (m - 1 - j M and A); L L^T then scales each y (one M).
 //   schur_dense_backward(W, Winv, m, order, ldlt, ...): the backward half of
 //     schur_dense_solve: m (m - 1) / 2 products and subtractions, m scalings.
-//   The _fixed variants take the sizes as template arguments instead
-//   (gram_fixed<k, m>(A, B, W), and X_fixed<m>(W, Winv, ...) for the others):
-//   same loops, same counts.
+//   The square layout's variants take the sizes as template arguments
+//   instead (schur_square_gram_fixed<k, m>(A, B, W), and
+//   schur_square_X_fixed<m>(W, Winv, ...) for the others): the same
+//   arithmetic on the entries that are read, the same counts.  (Their loops
+//   also run over entries no result reads, above the diagonal and in the
+//   padding row: not counted.)
 bool count_dense_kernel(const std::string& raw, Recount* rc) {
-  // jr::schur_dense_gram_fixed<k, m>(A, B, W) -> jr::schur_dense_gram(A, B, k, m, W)
-  static const std::regex kGramFixed(R"(jr::schur_dense_gram_fixed<(\d+), (\d+)>\(([^,]+),([^,]+),)");
-  // jr::schur_dense_X_fixed<m>(W, Winv, ...) -> jr::schur_dense_X(W, Winv, m, ...)
-  static const std::regex kFixed(R"((jr::schur_dense_\w+)_fixed<(\d+)>\(([^,]+),([^,]+),)");
+  // jr::schur_square_gram_fixed<k, m>(A, B, W) -> jr::schur_dense_gram(A, B, k, m, W)
+  static const std::regex kGramFixed(R"(jr::schur_square_gram_fixed<(\d+), (\d+)>\(([^,]+),([^,]+),)");
+  // jr::schur_square_X_fixed<m>(W, Winv, ...) -> jr::schur_dense_X(W, Winv, m, ...)
+  static const std::regex kFixed(R"(jr::schur_square_(\w+)_fixed<(\d+)>\(([^,]+),([^,]+),)");
   const std::string line = std::regex_replace(std::regex_replace(raw, kGramFixed, "jr::schur_dense_gram($3,$4, $1, $2,"),
-                                              kFixed, "$1($3,$4, $2,");
+                                              kFixed, "jr::schur_dense_$1($3,$4, $2,");
   auto args = [&](const std::string& name) {
     std::vector<std::string> out;
     const std::size_t at = line.find(name + "(");

@@ -128,12 +128,15 @@ TEST_P(DenseSchur, FactorMatchesEigenAndSolves) {
   }
 }
 
-// The _fixed<m> variants that the generated code calls (m a template
-// argument) run the same loops: bitwise the same factor and solution.  (With
-// FMA available the compiler may contract the unrolled and the looped code
-// differently: then the same to a few roundings.)
+// The square layout that the generated code calls (m a template argument,
+// column j from j * ld, ld = m rounded up to even) runs the arithmetic of the
+// packed loops above entry by entry: bitwise the same W, factor, reciprocal
+// pivots and forward solution (with FMA available the compiler may contract
+// the two differently: then the same to a few roundings).  Its backward
+// substitution sums in another order: checked against Eigen.
 template <typename V>
 void expect_same(const V& a, const V& b, const char* what) {
+  ASSERT_EQ(a.size(), b.size()) << what;
 #ifdef __FMA__
   for (std::size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(a[i], b[i], 1e-13 * (1.0 + std::abs(a[i]))) << what;
 #else
@@ -141,53 +144,91 @@ void expect_same(const V& a, const V& b, const char* what) {
 #endif
 }
 
+// The lower triangle of a square W (leading dimension ld), packed by columns.
+std::vector<double> lower_of_square(const std::vector<double>& W, int m, int ld) {
+  std::vector<double> p;
+  for (int j = 0; j < m; ++j)
+    for (int i = j; i < m; ++i) p.push_back(W[static_cast<std::size_t>(j) * ld + i]);
+  return p;
+}
+
+std::vector<double> square(const Eigen::MatrixXd& A, int ld) {
+  std::vector<double> W(static_cast<std::size_t>(ld) * ld, 0.0);
+  for (Eigen::Index j = 0; j < A.cols(); ++j)
+    for (Eigen::Index i = j; i < A.rows(); ++i) W[static_cast<std::size_t>(j) * ld + i] = A(i, j);
+  return W;
+}
+
 template <std::int32_t K, std::int32_t M>
-void expect_fixed_equals_runtime() {
+void expect_square_equals_packed() {
+  constexpr int ld = jr::detail::kSquareLd<M>;
+  static_assert(ld % 2 == 0 && ld >= M && ld <= M + 1);
+  SCOPED_TRACE(::testing::Message() << "k " << K << ", m " << M);
   const Case c(K, M, 7 + M);
   {
-    std::vector<double> G1(M * (M + 1) / 2, -1.0), G2(G1.size(), -2.0);
+    std::vector<double> G1(M * (M + 1) / 2, -1.0), G2(static_cast<std::size_t>(ld) * ld, -2.0);
     jr::schur_dense_gram(c.A.data(), c.B.data(), K, M, G1.data());
-    jr::schur_dense_gram_fixed<K, M>(c.A.data(), c.B.data(), G2.data());
-    expect_same(G1, G2, "gram");
+    jr::schur_square_gram_fixed<K, M>(c.A.data(), c.B.data(), G2.data());
+    expect_same(G1, lower_of_square(G2, M, ld), "gram");
   }
   std::vector<std::int32_t> order(M);
   std::iota(order.begin(), order.end(), 0);
   std::shuffle(order.begin(), order.end(), std::mt19937(M));
+  const double cond = [&] {
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(c.W);
+    return es.eigenvalues().maxCoeff() / es.eigenvalues().minCoeff();
+  }();
+  Eigen::MatrixXd Wp(M, M);  // in elimination positions
+  for (int p = 0; p < M; ++p)
+    for (int q = 0; q < M; ++q) Wp(p, q) = c.W(order[p], order[q]);
+  Eigen::VectorXd b(M);
+  for (int i = 0; i < M; ++i) b[i] = std::cos(2.0 + i);
+  const Eigen::VectorXd x_ref = c.W.llt().solve(b);
   for (bool ldlt : {false, true}) {
-    std::vector<double> W1 = pack(c.W), W2 = W1, inv1(M), inv2(M), work(M);
+    SCOPED_TRACE(ldlt ? "ldlt" : "llt");
+    std::vector<double> F1 = pack(Wp), F2 = square(Wp, ld), inv1(M), inv2(M), work1(M), work2(ld, -3.0);
+    std::vector<double> y1(b.data(), b.data() + M), y2 = y1;
     double p1 = 0.0, p2 = 0.0;
-    ASSERT_EQ(jr::schur_dense_factor(W1.data(), inv1.data(), M, ldlt, 1e-14, &p1), -1);
-    ASSERT_EQ(jr::schur_dense_factor_fixed<M>(W2.data(), inv2.data(), ldlt, 1e-14, &p2), -1);
-    expect_same(W1, W2, "factor");
-    expect_same(inv1, inv2, "reciprocal pivots");
-    std::vector<double> x1(M), x2;
-    for (int i = 0; i < M; ++i) x1[i] = std::sin(1.0 + i);
-    x2 = x1;
-    jr::schur_dense_solve(W1.data(), inv1.data(), M, order.data(), ldlt, work.data(), x1.data());
-    jr::schur_dense_solve_fixed<M>(W2.data(), inv2.data(), order.data(), ldlt, work.data(), x2.data());
-    expect_same(x1, x2, ldlt ? "solve, ldlt" : "solve, llt");
-    // The fused factor and forward substitution, then the backward one.
-    std::vector<double> F1 = pack(c.W), F2 = F1, y1(M), y2(M);
-    for (int i = 0; i < M; ++i) y1[i] = y2[i] = std::cos(2.0 + i);
-    ASSERT_EQ(jr::schur_dense_factor_forward(F1.data(), inv1.data(), M, order.data(), ldlt, 1e-14, &p1, work.data(),
+    ASSERT_EQ(jr::schur_dense_factor_forward(F1.data(), inv1.data(), M, order.data(), ldlt, 1e-14, &p1, work1.data(),
                                              y1.data()),
               -1);
-    jr::schur_dense_backward(F1.data(), inv1.data(), M, order.data(), ldlt, work.data(), y1.data());
-    std::vector<double> work2(M);
-    ASSERT_EQ(jr::schur_dense_factor_forward_fixed<M>(F2.data(), inv2.data(), order.data(), ldlt, 1e-14, &p2,
-                                                      work2.data(), y2.data()),
+    ASSERT_EQ(jr::schur_square_factor_forward_fixed<M>(F2.data(), inv2.data(), order.data(), ldlt, 1e-14, &p2,
+                                                       work2.data(), y2.data()),
               -1);
-    jr::schur_dense_backward_fixed<M>(F2.data(), inv2.data(), order.data(), ldlt, work2.data(), y2.data());
-    expect_same(F1, F2, "fused factor");
-    expect_same(y1, y2, ldlt ? "fused solve, ldlt" : "fused solve, llt");
+    expect_same(F1, lower_of_square(F2, M, ld), "factor");
+    expect_same(inv1, inv2, "reciprocal pivots");
+    expect_same(work1, std::vector<double>(work2.begin(), work2.begin() + M), "forward solution");
+    jr::schur_square_backward_fixed<M>(F2.data(), inv2.data(), order.data(), ldlt, work2.data(), y2.data());
+    EXPECT_LE(relative_error(Eigen::Map<const Eigen::VectorXd>(y2.data(), M), x_ref), 8 * M * kEps * cond);
+  }
+  // A vanishing pivot (row and column p copies of p - 1) is reported at p.
+  if constexpr (M >= 2) {
+    constexpr int p = M / 2;
+    Eigen::MatrixXd S = c.W;
+    S.row(p) = S.row(p - 1);
+    S.col(p) = S.col(p - 1);
+    for (bool ldlt : {false, true}) {
+      std::vector<double> W = square(S, ld), Winv(M), work(ld), z(M, 1.0);
+      double pivot = 1.0;
+      EXPECT_EQ(jr::schur_square_factor_forward_fixed<M>(W.data(), Winv.data(), order.data(), ldlt, 1e-10, &pivot,
+                                                         work.data(), z.data()),
+                p);
+      EXPECT_LE(std::abs(pivot), 1e-10 * S(p, p));
+    }
   }
 }
 
-TEST(DenseSchurFixed, SameResultsAsTheRuntimeLoops) {
-  expect_fixed_equals_runtime<3, 1>();
-  expect_fixed_equals_runtime<1, 5>();
-  expect_fixed_equals_runtime<6, 16>();
-  expect_fixed_equals_runtime<7, 32>();
+TEST(DenseSchurSquare, SameArithmeticAsThePackedLoops) {
+  expect_square_equals_packed<3, 1>();
+  expect_square_equals_packed<1, 2>();
+  expect_square_equals_packed<2, 3>();
+  expect_square_equals_packed<1, 5>();
+  expect_square_equals_packed<6, 8>();
+  expect_square_equals_packed<4, 13>();
+  expect_square_equals_packed<6, 16>();
+  expect_square_equals_packed<5, 17>();
+  expect_square_equals_packed<9, 31>();
+  expect_square_equals_packed<7, 32>();
 }
 
 TEST_P(DenseSchur, SingularPivotIsReportedAtItsPosition) {

@@ -116,13 +116,12 @@ void schur_dense_backward(const double* W, const double* Winv, std::int32_t m, c
 
 namespace detail {
 
-// The loops of the dense kernels, for sizes known at run time (std::int32_t)
-// or at compile time (std::integral_constant: the _fixed variants below,
-// which the generated code calls).  They work on pairs of rows (jr::v2d: one
-// SSE2 or NEON instruction per pair) and walk the packed columns with
-// pointers; the arithmetic of each entry is that of the scalar formulas in
-// the comments, in the order written there (so the _fixed and run-time
-// variants give bitwise the same results).
+// The loops of the packed dense kernels (the generated code calls them for
+// dense parts of more than 32 rows; up to 32 it calls the square-layout loops
+// further below, which do the same arithmetic entry by entry).  They work on
+// pairs of rows (jr::v2d: one SSE2 or NEON instruction per pair) and walk the
+// packed columns with pointers; the arithmetic of each entry is that of the
+// scalar formulas in the comments, in the order written there.
 
 // x[0..n) -= y[0..n) * f, by pairs.
 inline void axpy_sub(double* __restrict x, const double* __restrict y, double f, std::int32_t n) {
@@ -420,43 +419,235 @@ inline std::int32_t schur_dense_factor_forward_all(double* W, double* Winv, Size
   return schur_dense_factor_loops<true>(W, Winv, m, ldlt, pivot_tolerance, pivot, work);
 }
 
+// ---- The square layout (m known at compile time) ------------------------------
+//
+// The packed layout starts every column at its diagonal, so a pair of rows
+// is aligned in half the columns and the loops above spend much of their
+// time on odd first and last rows.  In the square layout column j starts
+// at j * ld, ld = m rounded up to even, so rows 2i and 2i + 1 are one pair in
+// every column, and with pivots and trailing columns taken two at a time
+// (j and s even) every loop runs over whole pairs.  The loops then also
+// compute entries above the diagonal (row s of column s + 1) and the
+// padding row m (m odd); those entries are never read for a result: they
+// only feed themselves.  The entries the factor reads get exactly the
+// arithmetic of schur_dense_factor_loops above, in the same order, so the
+// factors and the forward solution are bitwise the same.  HMMWV (m = 16, k =
+// 6; docs/benchmarks.md, run 13): the Gram part 225 -> 108 ns alone, the
+// factor 4670 -> 4147 instructions (its time is that of the chain of
+// pivots, 260 ns alone either way), the whole solve 5-9 % faster.
+template <std::int32_t M>
+inline constexpr std::int32_t kSquareLd = M + (M & 1);
+
+// Step 3.3, dense part, square layout: W[j + r, j] = sum_i A[i, j + r] B[i, j]
+// (as schur_dense_gram_loops), columns by pairs and rows by aligned pairs
+// from the first column's diagonal.
+template <std::int32_t K, std::int32_t M>
+inline void schur_square_gram_loops(const double* __restrict A, const double* __restrict B, double* __restrict W) {
+  constexpr std::int32_t ld = kSquareLd<M>;
+  for (std::int32_t j = 0; j < M; j += 2) {
+    double* c0 = W + static_cast<std::int64_t>(j) * ld;
+    double* c1 = c0 + ld;
+    const bool two = j + 1 < M;  // column j + 1 exists
+    std::int32_t r = j;
+    for (; r + 1 < M; r += 2) {  // rows r, r + 1
+      v2d s0{}, s1{};
+      for (std::int32_t i = 0; i < K; ++i) {
+        const v2d a = load2(A + static_cast<std::int64_t>(i) * M + r);
+        const double* b = B + static_cast<std::int64_t>(i) * M + j;
+        if (i == 0) {
+          s0 = a * b[0];
+          if (two) s1 = a * b[1];
+        } else {
+          s0 += a * b[0];
+          if (two) s1 += a * b[1];
+        }
+      }
+      store2(c0 + r, s0);
+      if (two) store2(c1 + r, s1);
+    }
+    if (r < M) {  // the last row alone (m odd)
+      double s0 = 0.0, s1 = 0.0;
+      for (std::int32_t i = 0; i < K; ++i) {
+        const double a = A[static_cast<std::int64_t>(i) * M + r];
+        const double* b = B + static_cast<std::int64_t>(i) * M + j;
+        s0 = i == 0 ? a * b[0] : s0 + a * b[0];
+        if (two) s1 = i == 0 ? a * b[1] : s1 + a * b[1];
+      }
+      c0[r] = s0;
+      if (two) c1[r] = s1;
+    }
+  }
+}
+
+// Step 3.4 (a), square layout: the factorization (and with kForward the
+// forward substitution of z, which holds ld doubles) of
+// schur_dense_factor_loops, pivot pairs (j, j + 1) and trailing column pairs
+// (s, s + 1) with j and s even, every row loop over aligned pairs.
+template <bool kForward, std::int32_t M>
+inline std::int32_t schur_square_factor_loops(double* __restrict W, double* __restrict Winv, bool ldlt,
+                                              double pivot_tolerance, double* pivot, double* __restrict z) {
+  constexpr std::int32_t ld = kSquareLd<M>;
+  for (std::int32_t j = 0; j < M; ++j) Winv[j] = W[static_cast<std::int64_t>(j) * ld + j];
+  auto take_pivot = [&](double d, std::int32_t j) {
+    if (!(d > pivot_tolerance * Winv[j])) {
+      *pivot = d;
+      return false;
+    }
+    Winv[j] = 1.0 / d;
+    return true;
+  };
+  double d0 = M > 0 ? W[0] : 0.0;  // pivot of column j, all earlier columns subtracted
+  std::int32_t j = 0;
+  for (; j + 1 < M; j += 2) {
+    double* cj = W + static_cast<std::int64_t>(j) * ld;  // column j (rows from 0)
+    double* c1 = cj + ld;                                // column j + 1
+    if (!take_pivot(d0, j)) return j;
+    const double d0inv = Winv[j];
+    const double f = cj[j + 1] * d0inv;
+    const double d1 = c1[j + 1] - cj[j + 1] * f;
+    c1[j + 1] = d1;
+    for (std::int32_t r = j + 2; r < ld; r += 2) store2(c1 + r, load2(c1 + r) - load2(cj + r) * f);
+    double g0 = 0.0;
+    if (kForward) {
+      g0 = z[j] * d0inv;
+      z[j + 1] -= cj[j + 1] * g0;
+    }
+    if (ldlt) cj[j + 1] = f;
+    if (!take_pivot(d1, j + 1)) return j + 1;
+    const double d1inv = Winv[j + 1];
+    if (kForward) {
+      const double g1 = z[j + 1] * d1inv;
+      for (std::int32_t r = j + 2; r < ld; r += 2)
+        store2(z + r, (load2(z + r) - load2(cj + r) * g0) - load2(c1 + r) * g1);
+    }
+    // Trailing columns s, s + 1 (s + 1 = m: the padding column, m odd):
+    // rows s.. of both, so the diagonal entry of s (for s = j + 2 the next
+    // pivot) rides in the first pair.
+    for (std::int32_t s = j + 2; s < M; s += 2) {
+      double* cs = W + static_cast<std::int64_t>(s) * ld;
+      double* cs1 = cs + ld;
+      const double f0 = cj[s] * d0inv, f1 = c1[s] * d1inv;
+      const double h0 = cj[s + 1] * d0inv, h1 = c1[s + 1] * d1inv;
+      for (std::int32_t r = s; r < ld; r += 2) {
+        const v2d y = load2(cj + r), w = load2(c1 + r);
+        store2(cs + r, (load2(cs + r) - y * f0) - w * f1);
+        store2(cs1 + r, (load2(cs1 + r) - y * h0) - w * h1);
+      }
+      if (ldlt) {
+        cj[s] = f0;
+        c1[s] = f1;
+        cj[s + 1] = h0;
+        c1[s + 1] = h1;
+      }
+    }
+    if (j + 2 < M) d0 = W[static_cast<std::int64_t>(j + 2) * ld + j + 2];  // the next pass's pivot
+  }
+  if (j < M && !take_pivot(d0, j)) return j;  // the last column alone (m odd)
+  if (!ldlt) {
+    for (std::int32_t i = 0; i < M; ++i) {
+      double* c = W + static_cast<std::int64_t>(i) * ld;
+      const double l = std::sqrt(c[i]);
+      const double inv = l * Winv[i];  // sqrt(d) / d
+      Winv[i] = inv;
+      if (kForward) z[i] *= inv;
+      // Rows i + 1 .. ld - 1 by pairs; for i even the pair (i, i + 1),
+      // then the diagonal entry set.
+      for (std::int32_t r = i & ~1; r < ld; r += 2) store2(c + r, load2(c + r) * inv);
+      c[i] = l;
+    }
+  }
+  return -1;
+}
+
+// Step 3.4 (b), square layout: the backward substitution of
+// schur_dense_backward_loops on x (elimination order), by pairs of unknowns
+// (j, j + 1), j even: both dot products over the rows j + 2 .. m - 1 share
+// the loads of x, the farthest rows first and the pair solved last
+// (j + 2, j + 3: kept in a register) at the end, so that the serial chain
+// from one pair to the next is a product, a sum and the scalings.
+template <std::int32_t M>
+inline void schur_square_backward_loops(const double* __restrict W, const double* __restrict Winv, bool ldlt,
+                                        double* __restrict x) {
+  constexpr std::int32_t ld = kSquareLd<M>;
+  constexpr std::int32_t last_pair = (M & ~1) - 2;  // first row of the last pair of unknowns
+  v2d next{};                                       // x[j + 2], x[j + 3]
+  double lone = 0.0;                                // x[m - 1], m odd
+  if constexpr ((M & 1) != 0) {
+    lone = x[M - 1] * Winv[M - 1];  // no rows below: y / d (L D L^T) or y / l (L L^T)
+    x[M - 1] = lone;
+  }
+  for (std::int32_t j = last_pair; j >= 0; j -= 2) {
+    const double* c0 = W + static_cast<std::int64_t>(j) * ld;
+    const double* c1 = c0 + ld;
+    double t0 = 0.0, t1 = 0.0;  // sum over rows r > j + 1 of L[r, j] x[r] and L[r, j + 1] x[r]
+    if (j < last_pair) {
+      v2d a0{}, a1{};
+      for (std::int32_t r = j + 4; r + 1 < M; r += 2) {
+        const v2d xr = load2(x + r);
+        a0 += load2(c0 + r) * xr;
+        a1 += load2(c1 + r) * xr;
+      }
+      a0 += load2(c0 + j + 2) * next;
+      a1 += load2(c1 + j + 2) * next;
+      t0 = sum2(a0);
+      t1 = sum2(a1);
+    }
+    if constexpr ((M & 1) != 0) {
+      t0 += c0[M - 1] * lone;
+      t1 += c1[M - 1] * lone;
+    }
+    double s1 = ldlt ? x[j + 1] * Winv[j + 1] : x[j + 1];
+    s1 -= t1;
+    const double x1 = ldlt ? s1 : s1 * Winv[j + 1];
+    double s0 = ldlt ? x[j] * Winv[j] : x[j];
+    s0 = (s0 - t0) - c0[j + 1] * x1;
+    const double x0 = ldlt ? s0 : s0 * Winv[j];
+    next = set2(x0, x1);
+    store2(x + j, next);
+  }
+}
+
+template <std::int32_t M>
+inline std::int32_t schur_square_factor_forward_all(double* W, double* Winv, const std::int32_t* order, bool ldlt,
+                                                    double pivot_tolerance, double* pivot, double* work,
+                                                    const double* zm) {
+  for (std::int32_t j = 0; j < M; ++j) work[j] = zm[order[j]];
+  if constexpr ((M & 1) != 0) work[M] = 0.0;  // the padding row
+  return schur_square_factor_loops<true, M>(W, Winv, ldlt, pivot_tolerance, pivot, work);
+}
+
+template <std::int32_t M>
+inline void schur_square_backward_all(const double* W, const double* Winv, const std::int32_t* order, bool ldlt,
+                                      double* work, double* zm) {
+  schur_square_backward_loops<M>(W, Winv, ldlt, work);
+  for (std::int32_t j = 0; j < M; ++j) zm[order[j]] = work[j];
+}
+
 }  // namespace detail
 
-/// schur_dense_gram(), schur_dense_factor(), schur_dense_solve(),
-/// schur_dense_factor_forward() and schur_dense_backward() for sizes known at
-/// compile time: the same loops and arithmetic (bitwise the same results),
-/// with every trip count a constant.
+/// The dense Steps 3.3 and 3.4 in the square layout, for m known at compile
+/// time (what generated solvers with m <= 32 call): W holds ld x ld doubles,
+/// ld = m rounded up to even (jr::detail::kSquareLd<m>), column j from
+/// j * ld, the lower triangle in use; work holds ld doubles.  The same
+/// arithmetic as schur_dense_gram() and schur_dense_factor_forward() entry
+/// by entry (bitwise the same W, factor and forward solution), and
+/// schur_dense_backward()'s products and subtractions in another order.
 template <std::int32_t K, std::int32_t M>
-inline void schur_dense_gram_fixed(const double* A, const double* B, double* W) {
-  detail::schur_dense_gram_loops(A, B, std::integral_constant<std::int32_t, K>{},
-                                 std::integral_constant<std::int32_t, M>{}, W);
+inline void schur_square_gram_fixed(const double* A, const double* B, double* W) {
+  detail::schur_square_gram_loops<K, M>(A, B, W);
 }
 
 template <std::int32_t M>
-inline std::int32_t schur_dense_factor_fixed(double* W, double* Winv, bool ldlt, double pivot_tolerance,
-                                             double* pivot) {
-  return detail::schur_dense_factor_loops<false>(W, Winv, std::integral_constant<std::int32_t, M>{}, ldlt,
-                                                 pivot_tolerance, pivot, nullptr);
+inline std::int32_t schur_square_factor_forward_fixed(double* W, double* Winv, const std::int32_t* order, bool ldlt,
+                                                      double pivot_tolerance, double* pivot, double* work,
+                                                      const double* zm) {
+  return detail::schur_square_factor_forward_all<M>(W, Winv, order, ldlt, pivot_tolerance, pivot, work, zm);
 }
 
 template <std::int32_t M>
-inline void schur_dense_solve_fixed(const double* W, const double* Winv, const std::int32_t* order, bool ldlt,
-                                    double* work, double* zm) {
-  detail::schur_dense_solve_all(W, Winv, std::integral_constant<std::int32_t, M>{}, order, ldlt, work, zm);
-}
-
-template <std::int32_t M>
-inline std::int32_t schur_dense_factor_forward_fixed(double* W, double* Winv, const std::int32_t* order, bool ldlt,
-                                                     double pivot_tolerance, double* pivot, double* work,
-                                                     const double* zm) {
-  return detail::schur_dense_factor_forward_all(W, Winv, std::integral_constant<std::int32_t, M>{}, order, ldlt,
-                                                pivot_tolerance, pivot, work, zm);
-}
-
-template <std::int32_t M>
-inline void schur_dense_backward_fixed(const double* W, const double* Winv, const std::int32_t* order, bool ldlt,
-                                       double* work, double* zm) {
-  detail::schur_dense_backward_all(W, Winv, std::integral_constant<std::int32_t, M>{}, order, ldlt, work, zm);
+inline void schur_square_backward_fixed(const double* W, const double* Winv, const std::int32_t* order, bool ldlt,
+                                        double* work, double* zm) {
+  detail::schur_square_backward_all<M>(W, Winv, order, ldlt, work, zm);
 }
 
 }  // namespace jr
