@@ -181,7 +181,12 @@ int not_positive_definite(std::int32_t dof_lem, double pivot) {
 // Each step below stays its own function (2226 additions and multiplications in all:
 // one function that large compiles to slower code), and the long steps
 // pass values from block to block through memory (jr::compiler_fence).
-#if defined(__GNUC__) || defined(__clang__)
+// noclone: GCC would clone each step with the thread-local workspace
+// propagated into it, and then recompute the arrays' addresses after
+// fences, saving registers around each; as arguments they are plain pointers.
+#if defined(__GNUC__) && !defined(__clang__)
+#define JRGEN_STEP __attribute__((noinline, noclone))
+#elif defined(__clang__)
 #define JRGEN_STEP __attribute__((noinline))
 #elif defined(_MSC_VER)
 #define JRGEN_STEP __declspec(noinline)
