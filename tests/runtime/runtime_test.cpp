@@ -5,7 +5,10 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
+#include <cmath>
+#include <limits>
 #include <random>
+#include <vector>
 
 #include "analysis/runtime_model.hpp"
 #include "common/model_cases.hpp"
@@ -184,6 +187,30 @@ std::string case_name(const ::testing::TestParamInfo<testing::ModelCase>& info) 
   for (char& c : n)
     if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
   return n;
+}
+
+// jr::any_non_finite (the generated solvers' last check): true exactly when
+// some entry is a NaN or an infinity, at every position of arrays of every
+// length up to 9 (the SSE2 pairs and the odd last entry), against
+// std::isfinite; the extreme finite values (the largest, the smallest
+// subnormal, minus zero) never count.
+TEST(AnyNonFinite, MatchesIsfiniteAtEveryPosition) {
+  const double specials[] = {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::signaling_NaN(),
+                             -std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity(),
+                             -std::numeric_limits<double>::infinity(),  std::numeric_limits<double>::max(),
+                             -std::numeric_limits<double>::max(),       std::numeric_limits<double>::denorm_min(),
+                             -0.0,                                      1.0};
+  for (int n = 0; n <= 9; ++n) {
+    std::vector<double> x(n + 1, 0.5);  // one entry past n, never read as part of x[0..n)
+    x[n] = std::numeric_limits<double>::infinity();
+    EXPECT_FALSE(jr::any_non_finite(x.data(), n)) << "n " << n;
+    for (int i = 0; i < n; ++i)
+      for (double v : specials) {
+        std::vector<double> y = x;
+        y[i] = v;
+        EXPECT_EQ(jr::any_non_finite(y.data(), n), !std::isfinite(v)) << "n " << n << ", x[" << i << "] = " << v;
+      }
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(AllTrees, RuntimeVsReference, ::testing::ValuesIn(testing::all_tree_models()),
