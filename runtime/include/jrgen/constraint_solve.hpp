@@ -433,9 +433,9 @@ inline std::int32_t schur_dense_factor_forward_all(double* W, double* Winv, Size
 // arithmetic of schur_dense_factor_loops above, in the same order, so the
 // factors and the forward solution are bitwise the same.  HMMWV (m = 16, k =
 // 6; docs/benchmarks.md, run 13): the Gram part 225 -> 108 ns alone, the
-// factor 4670 -> 4147 instructions (its time is that of the chain of
-// pivots, 260 ns alone either way), the whole solve 2-9 % faster (four
-// A/B runs).
+// factor 4670 -> 4147 instructions (260 ns alone either way: likely
+// bound by the chain from one pivot to the next), the whole solve 2-9 %
+// faster (four A/B runs).
 template <std::int32_t M>
 inline constexpr std::int32_t kSquareLd = M + (M & 1);
 
