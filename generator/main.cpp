@@ -16,6 +16,7 @@
 #include <unistd.h>
 
 #include "analysis/constraints.hpp"
+#include "analysis/finite_dynamics.hpp"
 #include "emit/emitter.hpp"
 #include "emit/report.hpp"
 #include "ir/error.hpp"
@@ -29,7 +30,8 @@ namespace {
 constexpr const char* kUsage =
     "usage: jrgen MODEL.urdf [--cuts CUTS.xml] -o OUT.cpp [--namespace NAME]\n"
     "             [--gravity GX,GY,GZ] [--method llt|ldlt] [--report OPS.md]\n"
-    "             [--strict-constraints] [--threads auto|1|N] [--divide]\n";
+    "             [--strict-constraints] [--bound-mass KG] [--bound-inertia KGM2]\n"
+    "             [--threads auto|1|N] [--divide]\n";
 
 constexpr const char* kHelp =
     "Generates a loop-free C++ solver of the equations of motion of a mechanism\n"
@@ -45,6 +47,12 @@ constexpr const char* kHelp =
     "  --method llt|ldlt     factorization: Cholesky or square-root-free L D L^T\n"
     "  --report OPS.md       write the operation counts of the emitted code\n"
     "  --strict-constraints  redundant constraint rows are an error\n"
+    "  --bound-mass KG       raise every moving body lighter than KG to KG (one\n"
+    "                        note each; MuJoCo's boundmass): loads links without\n"
+    "                        <inertial>\n"
+    "  --bound-inertia KGM2  raise every principal moment of inertia (about the\n"
+    "                        centre of mass) below KGM2 to KGM2 (MuJoCo's\n"
+    "                        boundinertia)\n"
     "  --threads auto|1|N    (extension) Corollary 3 parallel variant with OpenMP\n"
     "                        tasks over subtrees: auto (default) for large trees,\n"
     "                        1 never, N >= 2 always, with N threads\n"
@@ -59,13 +67,34 @@ struct Arguments {
   std::string cuts;
   std::string output;
   std::string name_space;
+  bool namespace_given = false;
   std::string report;
   Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
   jrgen::emit::Method method = jrgen::emit::Method::kLLT;
   bool strict_constraints = false;
   int threads = 0;  ///< 0: auto
   bool divide = false;
+  jrgen::topology::MassBounds bounds;
 };
+
+// `text` as a whole is one finite number.
+bool parse_finite(const std::string& text, double& x) {
+  std::size_t used = 0;
+  try {
+    x = std::stod(text, &used);
+  } catch (const std::exception&) {
+    return false;
+  }
+  return used != 0 && used == text.size() && std::isfinite(x);
+}
+
+// A bound of --bound-mass or --bound-inertia: a finite number > 0.
+double parse_bound(const std::string& option, const std::string& text) {
+  double x = 0.0;
+  if (!parse_finite(text, x) || !(x > 0.0))
+    throw jrgen::Error(option + ": expected a positive number, got '" + text + "'");
+  return x;
+}
 
 Eigen::Vector3d parse_gravity(const std::string& text) {
   Eigen::Vector3d g;
@@ -75,13 +104,7 @@ Eigen::Vector3d parse_gravity(const std::string& text) {
     if ((k < 2) != (end != std::string::npos))
       throw jrgen::Error("--gravity: expected three numbers GX,GY,GZ, got '" + text + "'");
     const std::string part = text.substr(pos, end == std::string::npos ? std::string::npos : end - pos);
-    std::size_t used = 0;
-    try {
-      g[k] = std::stod(part, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used == 0 || used != part.size() || !std::isfinite(g[k]))
+    if (!parse_finite(part, g[k]))
       throw jrgen::Error("--gravity: '" + part + "' is not a finite number");
     pos = end + 1;
   }
@@ -98,11 +121,16 @@ Arguments parse_arguments(int argc, char** argv) {
     const std::string a = argv[i];
     if (a == "-o" || a == "--output") args.output = value(i);
     else if (a == "--cuts") args.cuts = value(i);
-    else if (a == "--namespace") args.name_space = value(i);
+    else if (a == "--namespace") {
+      args.name_space = value(i);
+      args.namespace_given = true;
+    }
     else if (a == "--gravity") args.gravity = parse_gravity(value(i));
     else if (a == "--report") args.report = value(i);
     else if (a == "--strict-constraints") args.strict_constraints = true;
     else if (a == "--divide") args.divide = true;
+    else if (a == "--bound-mass") args.bounds.mass = parse_bound(a, value(i));
+    else if (a == "--bound-inertia") args.bounds.inertia = parse_bound(a, value(i));
     else if (a == "--threads") {
       const std::string t = value(i);
       if (t == "auto") {
@@ -136,8 +164,16 @@ Arguments parse_arguments(int argc, char** argv) {
   if (args.output.empty()) throw jrgen::Error("missing -o OUT.cpp (see jrgen --help)");
   if (fs::path(args.output).extension() != ".cpp")
     throw jrgen::Error("-o " + args.output + ": the output must end in .cpp (OUT.hpp is written beside it)");
-  if (!args.name_space.empty() && jrgen::emit::sanitize_identifier(args.name_space) != args.name_space)
-    throw jrgen::Error("--namespace '" + args.name_space + "' is not a C++ identifier");
+  for (char c : fs::path(args.output).filename().string())
+    if (c == '"' || c == '\\' || static_cast<unsigned char>(c) < 0x20 || c == 0x7f)
+      throw jrgen::Error("-o: the output's file name may not hold quotes, backslashes or control characters, since the "
+                         "solver #includes its header by that name; rename it");
+  if (args.namespace_given) {
+    const std::string why = jrgen::emit::invalid_namespace(args.name_space);
+    if (!why.empty())
+      throw jrgen::Error("--namespace '" + args.name_space + "': not usable as the solver's namespace: " + why +
+                         "; give a name such as my_robot");
+  }
   return args;
 }
 
@@ -188,10 +224,71 @@ class AtomicOutput {
   std::vector<std::pair<fs::path, fs::path>> pending_;
 };
 
+// One file as the file system sees it: the (device, inode) pair of an
+// existing path (symbolic links followed, so links and hard links to one file
+// compare equal), else the lexically normal absolute path of a file still to
+// be created (parent folders' links resolved).
+struct FileIdentity {
+  bool exists = false;
+  dev_t device = 0;
+  ino_t inode = 0;
+  fs::path path;
+  bool operator==(const FileIdentity& o) const {
+    return exists == o.exists && (exists ? device == o.device && inode == o.inode : path == o.path);
+  }
+};
+
+FileIdentity identify(const std::string& path) {
+  FileIdentity id;
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0) {
+    id.exists = true;
+    id.device = st.st_dev;
+    id.inode = st.st_ino;
+  } else {
+    std::error_code ec;
+    id.path = fs::weakly_canonical(fs::absolute(path), ec);
+    if (ec) id.path = fs::absolute(path).lexically_normal();
+  }
+  return id;
+}
+
+struct NamedPath {
+  std::string role;  ///< how the user gave it: "-o", "--report", "the model", ...
+  std::string path;
+};
+
+// INTERFACE.md section 1: no path jrgen writes may be one of its inputs or
+// another of its outputs, compared as files (links and hard links included).
+// Checked before anything is read or written.
+void check_outputs_are_distinct(const std::vector<NamedPath>& inputs, const std::vector<NamedPath>& outputs) {
+  for (std::size_t i = 0; i < outputs.size(); ++i) {
+    const FileIdentity out = identify(outputs[i].path);
+    auto clash = [&](const std::string& what, const std::string& path) {
+      throw jrgen::Error(fmt::format("{} {}: that file is {} ({}); jrgen never writes over an input or two "
+                                     "outputs into one file: choose another path",
+                                     outputs[i].role, outputs[i].path, what, path));
+    };
+    for (const NamedPath& in : inputs)
+      if (identify(in.path) == out) clash(in.role, in.path);
+    for (std::size_t j = 0; j < i; ++j)
+      if (identify(outputs[j].path) == out) clash("also written by " + outputs[j].role, outputs[j].path);
+  }
+}
+
 int run(const Arguments& args) {
+  {
+    const fs::path hpp = fs::path(args.output).replace_extension(".hpp");
+    std::vector<NamedPath> inputs = {{"the model", args.model}};
+    if (!args.cuts.empty()) inputs.push_back({"the --cuts file", args.cuts});
+    std::vector<NamedPath> outputs = {{"-o", args.output}, {"the header of -o", hpp.string()}};
+    if (!args.report.empty()) outputs.push_back({"--report", args.report});
+    check_outputs_are_distinct(inputs, outputs);
+  }
   jrgen::ir::Robot robot = jrgen::urdf::read_robot(args.model);
   if (!args.cuts.empty()) jrgen::urdf::read_cuts(args.cuts, robot);
-  jrgen::topology::Tree tree = jrgen::topology::build_tree(robot);
+  jrgen::topology::Tree tree = jrgen::topology::build_tree(robot, args.bounds);
+  jrgen::analysis::check_finite_dynamics(robot, tree, args.gravity);
   // Closed loops: default distances, assembly, redundant rows (notes on stderr).
   const jrgen::analysis::ConstraintAnalysis analysis =
       jrgen::analysis::analyze_constraints(robot, tree, args.strict_constraints);
@@ -200,7 +297,7 @@ int run(const Arguments& args) {
   fs::path hpp_path = cpp_path;
   hpp_path.replace_extension(".hpp");
   jrgen::emit::Options options;
-  options.name_space = args.name_space.empty() ? jrgen::emit::sanitize_identifier(robot.name) : args.name_space;
+  options.name_space = args.namespace_given ? args.name_space : jrgen::emit::sanitize_identifier(robot.name);
   options.gravity = args.gravity;
   options.method = args.method;
   options.threads = args.threads;
@@ -216,6 +313,7 @@ int run(const Arguments& args) {
   if (!args.report.empty()) out.add(args.report, jrgen::emit::operation_report(robot, tree, solver));
   out.commit();
   // Notes only after success: a failing run prints exactly one line.
+  for (const std::string& note : tree.notes) std::cerr << "jrgen: note: " << note << '\n';
   for (const std::string& note : analysis.notes) std::cerr << "jrgen: note: " << note << '\n';
   for (const std::string& note : solver.notes) std::cerr << "jrgen: note: " << note << '\n';
   return 0;

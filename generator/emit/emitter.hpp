@@ -61,8 +61,17 @@ struct Solver {
 /// Throws jrgen::Error for models the generated code cannot serve.
 Solver emit_solver(const ir::Robot& robot, const topology::Tree& tree, const Options& options);
 
-/// One documented rule (README): every character that is not [A-Za-z0-9_]
-/// becomes '_', a leading digit gets a '_' prefix, C++ keywords get a '_' suffix.
+/// The namespace derived from a robot name (INTERFACE.md section 1), one
+/// documented rule (docs): every character that is not [A-Za-z0-9_] becomes
+/// '_', runs of '_' become one, leading '_' are dropped (a global name that
+/// starts with '_' is reserved), an empty or digit-led result gets the prefix
+/// "robot_", and a keyword (or std, jr, posix) gets a '_' suffix.  The
+/// result is always a valid_namespace().
 std::string sanitize_identifier(std::string_view name);
+
+/// Why `name` cannot be the namespace of a generated solver ("" when it can):
+/// empty, not [A-Za-z_][A-Za-z0-9_]*, a keyword, or reserved ([lex.name]:
+/// containing "__", or starting with '_' at global scope; std, posix).
+std::string invalid_namespace(std::string_view name);
 
 }  // namespace jrgen::emit

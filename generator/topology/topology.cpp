@@ -5,6 +5,11 @@
 #include <queue>
 #include <stdexcept>
 
+#include <fmt/format.h>
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+
 #include "ir/error.hpp"
 
 namespace jrgen::topology {
@@ -20,8 +25,12 @@ struct MassAccumulator {
 
   // Adds a link's inertial placed at X_BL.
   void add(const ir::Inertial& in, const ir::Pose& X_BL) {
-    const Eigen::Vector3d c = X_BL.p + X_BL.R * in.com;
     const Eigen::Matrix3d Ic = X_BL.R * in.I_com * X_BL.R.transpose();
+    if (in.mass == 0.0) {  // no 0 x distance^2 terms: NaN for a link placed far out
+      I_o += Ic;
+      return;
+    }
+    const Eigen::Vector3d c = X_BL.p + X_BL.R * in.com;
     m += in.mass;
     h += in.mass * c;
     I_o += Ic + in.mass * (c.squaredNorm() * Eigen::Matrix3d::Identity() - c * c.transpose());
@@ -33,7 +42,7 @@ struct MassAccumulator {
     out.com = m > 0.0 ? Eigen::Vector3d(h / m) : Eigen::Vector3d::Zero();
     out.I_com = I_o - m * (out.com.squaredNorm() * Eigen::Matrix3d::Identity() -
                            out.com * out.com.transpose());
-    out.I_com = 0.5 * (out.I_com + out.I_com.transpose());
+    out.I_com = 0.5 * out.I_com + 0.5 * out.I_com.transpose();  // as 0.5 (A + A^T), without overflow
     return out;
   }
 };
@@ -45,6 +54,61 @@ void planar_directions(const Eigen::Vector3d& n, Eigen::Vector3d& e1, Eigen::Vec
   const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
   e1 = Eigen::Vector3d::Unit(a1);
   e2 = Eigen::Vector3d::Unit(a2);  // for a negative normal too, as INTERFACE.md states it
+}
+
+bool is_finite(const ir::Pose& X) { return X.R.allFinite() && X.p.allFinite(); }
+
+bool is_finite(const ir::Inertial& in) {
+  return std::isfinite(in.mass) && in.com.allFinite() && in.I_com.allFinite();
+}
+
+// Raises `in` to the bounds (--bound-mass, --bound-inertia): the mass to
+// bounds.mass, and each principal moment about the centre of mass below
+// bounds.inertia to it, about the same principal axes.  Returns what changed,
+// "" when nothing did (then `in` is untouched, bit for bit).
+std::string raise_to_bounds(ir::Inertial& in, const MassBounds& bounds) {
+  std::string what;
+  if (bounds.mass > 0.0 && in.mass < bounds.mass) {
+    what = fmt::format("mass {:g} kg raised to {:g} (--bound-mass)", in.mass, bounds.mass);
+    in.mass = bounds.mass;
+  }
+  if (!(bounds.inertia > 0.0)) return what;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(in.I_com);
+  Eigen::Vector3d moments = eig.eigenvalues();
+  if (moments.minCoeff() < bounds.inertia) {
+    what += fmt::format("{}principal moments of inertia ({:g}, {:g}, {:g}) kg m^2 raised to at least {:g} "
+                        "(--bound-inertia)",
+                        what.empty() ? "" : "; ", moments[0], moments[1], moments[2], bounds.inertia);
+    moments = moments.cwiseMax(bounds.inertia);
+    const Eigen::Matrix3d& V = eig.eigenvectors();
+    in.I_com = V * moments.asDiagonal() * V.transpose();
+    in.I_com = 0.5 * (in.I_com + in.I_com.transpose());
+  }
+  return what;
+}
+
+// Every constant the emitter prints for a body must be finite (INTERFACE.md
+// section 1): names the joint whose frame overflows, or the link whose
+// inertial does (else the joint carrying links whose fused sum does).
+void check_finite_body(const ir::Robot& robot, const Body& body, const std::vector<LinkPlacement>& links) {
+  const ir::Joint& joint = robot.joints[body.joint_ir];
+  if (!is_finite(body.X_PJ))
+    throw Error(joint.where, "joint", joint.name,
+                "its frame in the parent body (this <origin> composed with the fixed joints above it) overflows "
+                "double precision; check the <origin> values (metres, radians)");
+  if (is_finite(body.inertial)) return;
+  for (int l : body.links) {
+    MassAccumulator one;
+    one.add(robot.links[l].inertial, links[l].X_BL);
+    if (!is_finite(one.to_inertial()))
+      throw Error(robot.links[l].where, "link", robot.links[l].name,
+                  fmt::format("its <inertial>, placed on the body moved by joint '{}', overflows double precision "
+                              "(mass, inertia or mass x distance^2); check <mass>, <inertia> and <origin> (SI units)",
+                              joint.name));
+  }
+  throw Error(joint.where, "joint", joint.name,
+              "the mass properties of the links it moves, fused through fixed joints, overflow double precision "
+              "when added; check their <mass>, <inertia> and <origin> (SI units)");
 }
 
 }  // namespace
@@ -69,7 +133,7 @@ std::vector<std::vector<int>> Tree::descendants() const {
   return out;
 }
 
-Tree build_tree(const ir::Robot& robot) {
+Tree build_tree(const ir::Robot& robot, const MassBounds& bounds) {
   Tree tree;
   const int num_links = static_cast<int>(robot.links.size());
   tree.links.assign(num_links, LinkPlacement{});
@@ -121,7 +185,16 @@ Tree build_tree(const ir::Robot& robot) {
   tree.nq = q_user;
   tree.nv = v_user;
   const int nb = static_cast<int>(user_bodies.size());
-  for (int b = 0; b < nb; ++b) user_bodies[b].inertial = mass[b].to_inertial();
+  for (int b = 0; b < nb; ++b) {
+    Body& body = user_bodies[b];
+    body.inertial = mass[b].to_inertial();
+    check_finite_body(robot, body, tree.links);
+    const std::string raised = raise_to_bounds(body.inertial, bounds);
+    if (!raised.empty()) {
+      const ir::Joint& joint = robot.joints[body.joint_ir];
+      tree.notes.push_back(Error(joint.where, "joint", joint.name, "the body it moves: " + raised).what());
+    }
+  }
 
   // A moving body whose whole subtree carries no mass makes a zero row in M.
   {
@@ -139,7 +212,8 @@ Tree build_tree(const ir::Robot& robot) {
         const ir::Joint& joint = robot.joints[user_bodies[b].joint_ir];
         throw Error(joint.where, "joint", joint.name,
                     "moves no mass (every link it carries has zero mass and inertia), so the "
-                    "mass matrix is singular; give the child link an <inertial>");
+                    "mass matrix is singular; give the child link an <inertial>, or load with "
+                    "--bound-mass KG --bound-inertia KGM2 (as MuJoCo's boundmass, boundinertia)");
       }
   }
 
@@ -224,6 +298,10 @@ Tree build_tree(const ir::Robot& robot) {
     cut.child_axis = ic.child_axis;
     cut.distance = ic.distance;
     cut.distance_given = ic.distance_given;
+    if (!is_finite(cut.X_BkF) || !is_finite(cut.X_BlF))
+      throw Error(ic.where, "loop_joint", ic.name,
+                  "its joint frames, composed with the fixed joints of their links, overflow double precision; "
+                  "check <origin> and <child_origin> (metres, radians)");
     if (cut.body_k == cut.body_l)
       throw Error(ic.where, "loop_joint", ic.name,
                   "joins two links of the same rigid body (after fusing fixed joints); it constrains nothing");

@@ -81,6 +81,7 @@ struct Tree {
   std::vector<int> dof_depth;   ///< number of ancestors
   std::vector<int> M_col_start; ///< packed column starts (nv + 1): rows j, parent(j), ...
   std::vector<Cut> cuts;        ///< in ir::Robot::cuts order
+  std::vector<std::string> notes;  ///< for stderr (bodies raised to MassBounds)
 
   /// Kept constraint rows (nc).
   int nc() const;
@@ -127,9 +128,19 @@ struct Subtree {
 /// would exceed max_separator dofs.  In increasing `first`; O(nv log nv).
 std::vector<Subtree> partition_subtrees(const Tree& tree, int parts, int max_separator);
 
-/// Steps 1-3 above.  Throws jrgen::Error for trees whose mass matrix would be
-/// singular for structural reasons (a moving body that carries no mass).
-Tree build_tree(const ir::Robot& robot);
+/// Lower bounds on each moving body's fused mass properties
+/// (INTERFACE.md section 1, --bound-mass and --bound-inertia; MuJoCo's
+/// boundmass and boundinertia).  0: no bound.
+struct MassBounds {
+  double mass = 0.0;     ///< kg
+  double inertia = 0.0;  ///< kg m^2, each principal moment about the centre of mass
+};
+
+/// Steps 1-3 above.  Raises bodies below `bounds` to them (one note each in
+/// Tree::notes).  Throws jrgen::Error for trees whose mass matrix would be
+/// singular for structural reasons (a moving body that carries no mass) and
+/// for any non-finite constant (a frame or a fused inertia that overflows).
+Tree build_tree(const ir::Robot& robot, const MassBounds& bounds = {});
 
 /// The precondition the generated factorization relies on (STYLE.md section 5,
 /// as Pinocchio's CRBA checker): parent after child, dof chains consistent,

@@ -809,8 +809,9 @@ ir::Robot read_robot_string(const std::string& xml, const std::string& display_n
       out.inertial.mass = in.mass;
       out.inertial.com = frame.p;
       out.inertial.I_com = frame.R * I * frame.R.transpose();
-      // Remove the rounding asymmetry of the product.
-      out.inertial.I_com = 0.5 * (out.inertial.I_com + out.inertial.I_com.transpose()).eval();
+      // Remove the rounding asymmetry of the product.  Halves first: the
+      // same bits as 0.5 (A + A^T), without overflowing near DBL_MAX.
+      out.inertial.I_com = (0.5 * out.inertial.I_com + 0.5 * out.inertial.I_com.transpose()).eval();
     }
     robot.links.push_back(std::move(out));
   }

@@ -167,8 +167,11 @@ TEST(CliErrors, BadMethod) {
   expect_clean_failure({{kPendulum, "-o", "@OUT@/solver.cpp", "--method"}, {"--method"}, {}});
 }
 
+// INTERFACE.md section 1: a valid C++ identifier, not a keyword, not reserved
+// ([lex.name]: "__" anywhere, a leading '_' at global scope), not empty.
 TEST(CliErrors, BadNamespace) {
-  for (const std::string ns : {"9lives", "a-b", "a::b", "a b"}) {
+  for (const std::string ns : {"9lives", "a-b", "a::b", "a b", "", "__x", "a__b", "x__", "_X", "_x", "_", "int",
+                               "class", "std", "posix", "jr", "caf\xc3\xa9"}) {
     SCOPED_TRACE("--namespace '" + ns + "'");
     expect_clean_failure({{kPendulum, "-o", "@OUT@/solver.cpp", "--namespace", ns}, {"--namespace"}, {}});
   }
@@ -231,6 +234,76 @@ TEST(CliErrors, ReadOnlyOutputFolder) {
                         }});
 }
 
+// -- no output onto an input or onto another output (INTERFACE.md section 1) ----
+// The inputs are copies in the working folder, so a regression damages only
+// the copies; the snapshot of that folder then reports it.
+
+// Copies the pendulum (as `urdf_name`) and, when asked, the HMMWV's cuts file
+// into the working folder.
+std::function<void(const fs::path&, const fs::path&)> copy_inputs(const std::string& urdf_name,
+                                                                   bool hmmwv = false) {
+  return [urdf_name, hmmwv](const fs::path&, const fs::path& cwd) {
+    write_file(cwd / urdf_name, slurp(hmmwv ? kModelsDir / "hmmwv14.urdf" : fs::path(kPendulum)));
+    if (hmmwv) write_file(cwd / "hmmwv14.cuts.xml", slurp(kModelsDir / "hmmwv14.cuts.xml"));
+  };
+}
+
+TEST(CliErrors, ReportOntoTheModel) {
+  expect_clean_failure({{"good.urdf", "-o", "@OUT@/solver.cpp", "--report", "good.urdf"},
+                        {"--report good.urdf", "the model", "choose another path"},
+                        copy_inputs("good.urdf")});
+  // Another spelling of the same path.
+  expect_clean_failure({{"good.urdf", "-o", "@OUT@/solver.cpp", "--report", "@CWD@/../cwd/./good.urdf"},
+                        {"the model"},
+                        copy_inputs("good.urdf")});
+}
+
+TEST(CliErrors, ReportOntoTheCutsFile) {
+  expect_clean_failure({{"hmmwv.urdf", "--cuts", "hmmwv14.cuts.xml", "-o", "@OUT@/solver.cpp", "--report",
+                         "hmmwv14.cuts.xml"},
+                        {"--report hmmwv14.cuts.xml", "the --cuts file"},
+                        copy_inputs("hmmwv.urdf", true)});
+}
+
+TEST(CliErrors, ReportOntoTheGeneratedCode) {
+  expect_clean_failure({{kPendulum, "-o", "@OUT@/solver.cpp", "--report", "@OUT@/solver.cpp"},
+                        {"--report @OUT@/solver.cpp", "also written by -o"},
+                        {}});
+  expect_clean_failure({{kPendulum, "-o", "@OUT@/solver.cpp", "--report", "@OUT@/solver.hpp"},
+                        {"--report @OUT@/solver.hpp", "also written by the header of -o"},
+                        {}});
+}
+
+// An input named robot.hpp and -o robot.cpp: the header would replace it.
+TEST(CliErrors, HeaderOntoTheModel) {
+  expect_clean_failure({{"robot.hpp", "-o", "robot.cpp"}, {"the header of -o robot.hpp", "the model"},
+                        copy_inputs("robot.hpp")});
+}
+
+TEST(CliErrors, OutputOntoTheModel) {
+  expect_clean_failure({{"robot.cpp", "-o", "robot.cpp"}, {"-o robot.cpp", "the model"}, copy_inputs("robot.cpp")});
+}
+
+// Links: a symbolic link to the model, a hard link to it, a link to a folder
+// holding it.
+TEST(CliErrors, OutputsThroughLinksOntoTheModel) {
+  auto with_links = [](const fs::path& out, const fs::path& cwd) {
+    copy_inputs("good.urdf")(out, cwd);
+    fs::create_symlink(cwd / "good.urdf", cwd / "soft.md");
+    fs::create_hard_link(cwd / "good.urdf", cwd / "hard.md");
+    fs::create_directory_symlink(cwd, cwd / "here");
+    fs::create_symlink(cwd / "good.urdf", cwd / "soft.hpp");
+  };
+  expect_clean_failure({{"good.urdf", "-o", "@OUT@/solver.cpp", "--report", "soft.md"}, {"the model"}, with_links});
+  expect_clean_failure({{"good.urdf", "-o", "@OUT@/solver.cpp", "--report", "hard.md"}, {"the model"}, with_links});
+  expect_clean_failure({{"good.urdf", "-o", "@OUT@/solver.cpp", "--report", "here/good.urdf"}, {"the model"},
+                        with_links});
+  expect_clean_failure({{"good.urdf", "-o", "soft.cpp"}, {"the header of -o soft.hpp", "the model"}, with_links});
+  // A report written through a link to the folder of OUT.cpp.
+  expect_clean_failure({{"good.urdf", "-o", "solver.cpp", "--report", "here/solver.cpp"}, {"also written by -o"},
+                        with_links});
+}
+
 // -- unreadable or unusable models -----------------------------------------------
 
 TEST(CliErrors, ModelFileDoesNotExist) {
@@ -272,8 +345,61 @@ TEST(CliErrors, RomeoLHandMovesNoMass) {
   const int line = line_of(romeo, "<joint name=\"LHand\"");
   ASSERT_GT(line, 0);
   expect_clean_failure({{romeo.string(), "-o", "@OUT@/solver.cpp", "--report", "@OUT@/OPS.md"},
-                        {romeo.string() + ":" + std::to_string(line) + ":", "<joint> 'LHand'", "mass"},
+                        {romeo.string() + ":" + std::to_string(line) + ":", "<joint> 'LHand'", "mass",
+                         "--bound-mass", "--bound-inertia"},
                         {}});
+}
+
+TEST(CliErrors, BadMassBounds) {
+  for (const std::string option : {"--bound-mass", "--bound-inertia"}) {
+    for (const std::string value : {"0", "-1", "nan", "inf", "1e-3kg", ""}) {
+      SCOPED_TRACE(option + " '" + value + "'");
+      expect_clean_failure({{kPendulum, "-o", "@OUT@/solver.cpp", option, value}, {option, "positive"}, {}});
+    }
+    expect_clean_failure({{kPendulum, "-o", "@OUT@/solver.cpp", option}, {option, "missing value"}, {}});
+  }
+}
+
+// With bounds (as MuJoCo's boundmass, boundinertia) romeo loads: one note per
+// body raised, each naming its joint and the option that raised it.
+TEST(CliOutput, RomeoLoadsWithMassBounds) {
+  const fs::path romeo = kExternalModelsDir / "romeo.urdf";
+  ScratchDir scratch("jrgen_romeo");
+  const RunResult r = run_jrgen({romeo.string(), "-o", (scratch / "romeo.cpp").string(), "--bound-mass", "1e-3",
+                                 "--bound-inertia", "1e-6"},
+                                scratch.path());
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::vector<std::string> lines = split_lines(r.err);
+  std::vector<std::string> joints;
+  for (const std::string& line : lines) {
+    if (!contains(line, "--bound-")) continue;
+    EXPECT_TRUE(contains(line, "jrgen: note: ")) << line;
+    const std::size_t at = line.find("<joint> '");
+    ASSERT_NE(at, std::string::npos) << line;
+    joints.push_back(line.substr(at + 9, line.find('\'', at + 9) - at - 9));
+  }
+  EXPECT_NE(std::find(joints.begin(), joints.end(), "LHand"), joints.end());
+  std::vector<std::string> unique = joints;
+  std::sort(unique.begin(), unique.end());
+  EXPECT_EQ(std::unique(unique.begin(), unique.end()), unique.end()) << "one note per body";
+  EXPECT_TRUE(fs::exists(scratch / "romeo.hpp"));
+}
+
+// Finite numbers near DBL_MAX whose derived constants stay finite generate
+// code without inf or nan in it (those that overflow are tests/errors/overflow_*).
+TEST(CliOutput, HugeButRepresentableNumbersGiveFiniteConstants) {
+  ScratchDir scratch("jrgen_huge");
+  write_file(scratch / "huge.urdf", R"(<robot name="huge">
+  <link name="base"/>
+  <link name="arm"><inertial><origin xyz="0.5 0 0"/><mass value="1"/>
+    <inertia ixx="1e308" ixy="0" ixz="0" iyy="1e308" iyz="0" izz="1e308"/></inertial></link>
+  <joint name="shoulder" type="continuous"><parent link="base"/><child link="arm"/>
+    <origin xyz="1e308 0 -1e308"/><axis xyz="0 1 0"/></joint>
+</robot>)");
+  const RunResult r = run_jrgen({"huge.urdf", "-o", "solver.cpp"}, scratch.path());
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::regex non_finite(R"(\b(inf|nan|INF|NAN)\b)");
+  EXPECT_FALSE(std::regex_search(slurp(scratch / "solver.cpp"), non_finite));
 }
 
 // -- every case in tests/errors/ -----------------------------------------------
@@ -433,6 +559,28 @@ TEST(CliOutput, ReplacesEarlierOutputsAndLeavesNoTemporaries) {
   EXPECT_NE(s.at("solver.cpp"), "earlier\n");
   EXPECT_NE(s.at("OPS.md"), "earlier\n");
   EXPECT_TRUE(contains(s.at("solver.hpp"), "namespace pend {"));
+}
+
+// A robot name that is not a usable namespace is fixed up deterministically
+// (emit::sanitize_identifier): never reserved, never a keyword.
+TEST(CliOutput, DerivedNamespaceIsAValidIdentifier) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"my robot", "my_robot"},     {"__Hidden", "Hidden"},      {"a__b", "a_b"},       {"_Xyz", "Xyz"},
+      {"9lives", "robot_9lives"},   {"class", "class_"},         {"std", "std_"},       {"---", "robot_"},
+      {"x__", "x_"},                {"caf\xc3\xa9", "caf_"}};
+  for (const auto& [name, expected] : cases) {
+    SCOPED_TRACE("robot name '" + name + "'");
+    ScratchDir scratch("jrgen_ns");
+    std::string urdf = slurp(kPendulum);
+    const std::size_t at = urdf.find("name=\"", urdf.find("<robot"));
+    ASSERT_NE(at, std::string::npos);
+    const std::size_t end = urdf.find('"', at + 6);
+    urdf.replace(at + 6, end - at - 6, name);
+    write_file(scratch / "robot.urdf", urdf);
+    const RunResult r = run_jrgen({"robot.urdf", "-o", "solver.cpp"}, scratch.path());
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_TRUE(contains(slurp(scratch / "solver.hpp"), "namespace " + expected + " {")) << expected;
+  }
 }
 
 TEST(CliOutput, ReportOnlyWhenAsked) {
