@@ -35,11 +35,13 @@ std::string join_ints(const Range& values) {
 }
 
 // A URDF name inside a C++ string literal: quotes, backslashes and control
-// characters escaped (octal), so any name compiles.
+// characters escaped (octal), and a '?' after another '?' as "\?" (no two
+// '?' in a row: no trigraph, no -Wtrigraphs), so any name compiles.
 inline std::string c_string(std::string_view name) {
   std::string out = "\"";
-  for (unsigned char c : name) {
-    if (c == '"' || c == '\\') {
+  for (std::size_t i = 0; i < name.size(); ++i) {
+    const unsigned char c = static_cast<unsigned char>(name[i]);
+    if (c == '"' || c == '\\' || (c == '?' && i > 0 && name[i - 1] == '?')) {
       out += '\\';
       out += static_cast<char>(c);
     } else if (c < 0x20 || c == 0x7f) {
@@ -51,13 +53,17 @@ inline std::string c_string(std::string_view name) {
   return out + "\"";
 }
 
-// A URDF name inside a // comment: control characters become '?' and
-// backslashes '/', so a name can never end or continue the comment line.
+// A URDF name inside a // comment: control characters become '?',
+// backslashes '/', and "??" becomes "? ?" (no trigraph "??/" to splice the
+// next line under -std=c++14), so a name can never end or continue the
+// comment line.
 inline std::string comment_text(std::string_view name) {
-  std::string out(name);
-  for (char& c : out) {
+  std::string out;
+  for (char c : name) {
     if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = '?';
     if (c == '\\') c = '/';
+    if (c == '?' && !out.empty() && out.back() == '?') out += ' ';
+    out += c;
   }
   return out;
 }
