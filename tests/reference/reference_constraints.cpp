@@ -26,6 +26,7 @@
 #include "reference/reference_constraints.hpp"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -185,6 +186,25 @@ CutRows cut_rows(const ir::Robot& robot, const ir::CutJoint& cut, double D, cons
   }
   if (put.n != rows) throw std::logic_error("reference cut_rows: row count");
   return out;
+}
+
+double definition_residual(const ir::Robot& robot, const ir::CutJoint& cut, double D, const VectorXd& q) {
+  const FrameState k = frame_state(robot, q, VectorXd(), cut.link_k, cut.frame_k);
+  const FrameState l = frame_state(robot, q, VectorXd(), cut.link_l, cut.frame_l);
+  const Relative rel = relative(k, l, false);
+  const Vector3d a = cut.axis.normalized(), c = cut.child_axis.normalized();
+  const double coincide = rel.p.norm(), on_axis = a.cross(rel.p).norm();
+  const double aligned = (rel.R * a - a).norm(), oriented = (rel.R - Matrix3d::Identity()).norm();
+  switch (cut.type) {
+    case ir::CutType::Spherical: return coincide;
+    case ir::CutType::Revolute: return std::max(coincide, aligned);
+    case ir::CutType::Prismatic: return std::max(on_axis, oriented);
+    case ir::CutType::Cylindrical: return std::max(on_axis, aligned);
+    case ir::CutType::Universal: return std::max(coincide, std::abs(a.dot(rel.R * c)));
+    case ir::CutType::Fixed: return std::max(coincide, oriented);
+    case ir::CutType::Distance: return std::abs(rel.p.norm() - D);
+  }
+  return 0.0;
 }
 
 std::vector<int> basis_row_roles(ir::CutType type) {

@@ -77,6 +77,20 @@ struct CutRows {
 CutRows cut_rows(const ir::Robot& robot, const ir::CutJoint& cut, double D, const Eigen::Vector3d& u,
                  const Eigen::Vector3d& w, const Eigen::VectorXd& q, const Eigen::VectorXd& v);
 
+/// How far q is from the set INTERFACE.md section 2 defines for the cut,
+/// written from the definition alone (no rows): the largest applicable term of
+///   |p|                 origins coincide (spherical, revolute, universal, fixed)
+///   |axis x p|          origins move only along the axis (prismatic, cylindrical)
+///   |R axis - axis|     the axis stays aligned, in the same sense (revolute, cylindrical)
+///   ||R - I||_F         orientation fixed (prismatic, fixed)
+///   |axis . R child_axis|  axes perpendicular (universal)
+///   ||p| - D|           distance
+/// Zero exactly on the set.  Any 2 or 3 smooth rows that encode an axis
+/// alignment or an orientation also vanish elsewhere (the runtime's do at
+/// R axis = -axis and at half turns about a coordinate axis of Fk); this
+/// does not.
+double definition_residual(const ir::Robot& robot, const ir::CutJoint& cut, double D, const Eigen::VectorXd& q);
+
 /// The rows of `cut` that use the basis (u, w): for each, +1 when it is the
 /// u member of its pair, -1 when the w member, 0 when it does not use it.
 std::vector<int> basis_row_roles(ir::CutType type);
