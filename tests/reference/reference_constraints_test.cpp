@@ -16,7 +16,9 @@
 //                               runtime's rows vanish on the configurations
 //                               INTERFACE.md section 2 defines for each type,
 //                               and the null space of Phiq is exactly the
-//                               relative motion the type allows.
+//                               relative motion the type allows;
+//   CutDefinitionResidual.*     the reference's row-free distance from the
+//                               defined set sees what rows cannot.
 //
 // Row by row: the rows are the scalar functions of the relative placement of
 // the two joint frames that runtime.hpp documents (CutKind), so each solver
