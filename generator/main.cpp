@@ -29,7 +29,8 @@ namespace {
 constexpr const char* kUsage =
     "usage: jrgen MODEL.urdf [--cuts CUTS.xml] -o OUT.cpp [--namespace NAME]\n"
     "             [--gravity GX,GY,GZ] [--method llt|ldlt] [--report OPS.md]\n"
-    "             [--strict-constraints] [--threads auto|1|N] [--divide]\n";
+    "             [--strict-constraints] [--threads auto|1|N] [--divide]\n"
+    "             [--assemble-from Q.txt]\n";
 
 constexpr const char* kHelp =
     "Generates a loop-free C++ solver of the equations of motion of a mechanism\n"
@@ -45,6 +46,10 @@ constexpr const char* kHelp =
     "  --method llt|ldlt     factorization: Cholesky or square-root-free L D L^T\n"
     "  --report OPS.md       write the operation counts of the emitted code\n"
     "  --strict-constraints  redundant constraint rows are an error\n"
+    "  --assemble-from Q.txt start the assembly of the loops at Q.txt: nq numbers\n"
+    "                        in user order, separated by spaces, newlines or\n"
+    "                        commas (default: the zero configuration, then\n"
+    "                        seeded starts; docs/assembly.md)\n"
     "  --threads auto|1|N    (extension) Corollary 3 parallel variant with OpenMP\n"
     "                        tasks over subtrees: auto (default) for large trees,\n"
     "                        1 never, N >= 2 always, with N threads\n"
@@ -60,6 +65,7 @@ struct Arguments {
   std::string output;
   std::string name_space;
   std::string report;
+  std::string assemble_from;
   Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
   jrgen::emit::Method method = jrgen::emit::Method::kLLT;
   bool strict_constraints = false;
@@ -101,6 +107,7 @@ Arguments parse_arguments(int argc, char** argv) {
     else if (a == "--namespace") args.name_space = value(i);
     else if (a == "--gravity") args.gravity = parse_gravity(value(i));
     else if (a == "--report") args.report = value(i);
+    else if (a == "--assemble-from") args.assemble_from = value(i);
     else if (a == "--strict-constraints") args.strict_constraints = true;
     else if (a == "--divide") args.divide = true;
     else if (a == "--threads") {
@@ -194,7 +201,7 @@ int run(const Arguments& args) {
   jrgen::topology::Tree tree = jrgen::topology::build_tree(robot);
   // Closed loops: default distances, assembly, redundant rows (notes on stderr).
   const jrgen::analysis::ConstraintAnalysis analysis =
-      jrgen::analysis::analyze_constraints(robot, tree, args.strict_constraints);
+      jrgen::analysis::analyze_constraints(robot, tree, args.strict_constraints, args.assemble_from);
 
   const fs::path cpp_path(args.output);
   fs::path hpp_path = cpp_path;
@@ -213,7 +220,7 @@ int run(const Arguments& args) {
   AtomicOutput out;
   out.add(cpp_path, solver.source);
   out.add(hpp_path, solver.header);
-  if (!args.report.empty()) out.add(args.report, jrgen::emit::operation_report(robot, tree, solver));
+  if (!args.report.empty()) out.add(args.report, jrgen::emit::operation_report(robot, tree, solver) + analysis.report_section);
   out.commit();
   // Notes only after success: a failing run prints exactly one line.
   for (const std::string& note : analysis.notes) std::cerr << "jrgen: note: " << note << '\n';

@@ -1,0 +1,340 @@
+// Assembly of closed loops (generator/analysis/constraints.cpp; docs/assembly.md;
+// issue 19, items 3 and 9).
+//
+//   AssemblyDrawn      loops drawn open at a singular configuration (four-bars
+//                      stretched, folded, collinear; a slider-crank in line; five
+//                      coupled four-bars folded flat) assemble: the configuration
+//                      jrgen uses closes every loop, checked by an independent
+//                      formulation (reference link poses and the definitions of
+//                      INTERFACE.md section 2, not the runtime's Phi).
+//   AssemblyModels     every loop model case (the project's models, trains,
+//                      random trees with random cuts), assembled as drawn, keeps
+//                      the zero configuration, with no assembly note.
+//   AssemblyUnits      the same mechanisms drawn in millimetres and kilometres
+//                      assemble to the same angles and keep the same rows.
+//   AssemblyStart      --assemble-from: its start is used; bad files are one error.
+//   AssemblyFails      a loop no configuration closes stays an error naming the
+//                      loop joint, what was tried and --assemble-from.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "analysis/constraints.hpp"
+#include "common/model_cases.hpp"
+#include "ir/error.hpp"
+#include "reference/reference_dynamics.hpp"
+#include "topology/topology.hpp"
+#include "urdf/urdf_reader.hpp"
+
+namespace jrgen {
+namespace {
+
+namespace fs = std::filesystem;
+const fs::path kSource = JRGEN_SOURCE_DIR;
+const fs::path kAssemblyDir = kSource / "tests" / "assembly";
+
+ir::Robot read(const fs::path& urdf, const fs::path& cuts = {}) {
+  ir::Robot robot = urdf::read_robot(urdf.string());
+  if (!cuts.empty()) urdf::read_cuts(cuts.string(), robot);
+  return robot;
+}
+
+// Every length of the model times s (joint and cut frames, distances, centres
+// of mass; inertias times s^2): the same mechanism in other units.
+ir::Robot scaled(ir::Robot robot, double s) {
+  for (ir::Joint& j : robot.joints) j.origin.p *= s;
+  for (ir::Link& l : robot.links) {
+    l.inertial.com *= s;
+    l.inertial.I_com *= s * s;
+  }
+  for (ir::CutJoint& c : robot.cuts) {
+    c.frame_k.p *= s;
+    c.frame_l.p *= s;
+    c.distance *= s;
+  }
+  return robot;
+}
+
+// The largest violation of a cut's definition (INTERFACE.md section 2) at q,
+// from the reference's link poses: lengths divided by `length`, angles as the
+// sine of the misalignment.  Independent of the runtime's rows.
+double closure_error(const ir::Robot& robot, const ir::CutJoint& cut, const Eigen::VectorXd& q, double length,
+                     double distance) {
+  const std::vector<reference::LinkPose> poses = reference::link_poses(robot, q);
+  const reference::LinkPose& k = poses[cut.link_k];
+  const reference::LinkPose& l = poses[cut.link_l];
+  const Eigen::Matrix3d R_k = k.R_WL * cut.frame_k.R, R_l = l.R_WL * cut.frame_l.R;
+  const Eigen::Vector3d d = (l.p_WL + l.R_WL * cut.frame_l.p - k.p_WL - k.R_WL * cut.frame_k.p) / length;
+  const Eigen::Vector3d a_k = R_k * cut.axis, a_l = R_l * cut.axis;
+  const double across = (d - a_k * a_k.dot(d)).norm();  // offset across the axis
+  const double aligned = a_k.cross(a_l).norm();
+  const double orientation = (R_k - R_l).norm();
+  switch (cut.type) {
+    case ir::CutType::Spherical: return d.norm();
+    case ir::CutType::Revolute: return std::max(d.norm(), aligned);
+    case ir::CutType::Prismatic: return std::max(across, orientation);
+    case ir::CutType::Cylindrical: return std::max(across, aligned);
+    case ir::CutType::Universal: return std::max(d.norm(), std::abs(a_k.dot(R_l * cut.child_axis)));
+    case ir::CutType::Fixed: return std::max(d.norm(), orientation);
+    case ir::CutType::Distance: return std::abs(d.norm() - distance / length);
+  }
+  return INFINITY;
+}
+
+struct Assembled {
+  ir::Robot robot;
+  topology::Tree tree;
+  analysis::ConstraintAnalysis analysis;
+  double length = 1.0;
+  double drawn_error = 0.0;      ///< largest closure error at the zero configuration
+  double assembled_error = 0.0;  ///< at the configuration jrgen uses
+};
+
+Assembled assemble(ir::Robot robot, const std::string& start_file = "") {
+  Assembled a;
+  a.robot = std::move(robot);
+  a.tree = topology::build_tree(a.robot);
+  a.analysis = analysis::analyze_constraints(a.robot, a.tree, /*strict=*/false, start_file);
+  a.length = analysis::model_length_scale(a.tree);
+  const Eigen::VectorXd q0 = reference::neutral_configuration(a.robot);
+  for (std::size_t c = 0; c < a.robot.cuts.size(); ++c) {
+    const double D = a.tree.cuts[c].distance;  // default distances are filled in by the analysis
+    a.drawn_error = std::max(a.drawn_error, closure_error(a.robot, a.robot.cuts[c], q0, a.length, D));
+    a.assembled_error = std::max(
+        a.assembled_error, closure_error(a.robot, a.robot.cuts[c], a.analysis.configurations.front(), a.length, D));
+  }
+  return a;
+}
+
+// Assembly stops when max |phi~| < 1e-12 and accepts a start below 1e-9
+// (relative to the length scale on length rows; constraints.cpp, kAssembled);
+// the reference recomputes the closure with its own rounding, a few eps per joint.
+constexpr double kClosed = 1e-9;
+
+// ---- AssemblyDrawn --------------------------------------------------------------
+
+class AssemblyDrawn : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(AssemblyDrawn, ClosesEveryLoop) {
+  const fs::path urdf = kAssemblyDir / (std::string(GetParam()) + ".urdf");
+  const Assembled a = assemble(read(urdf));
+  // The drawing is open (so the test needs assembly) ...
+  EXPECT_GT(a.drawn_error, 0.1) << urdf;
+  // ... and the configuration used closes every loop.
+  EXPECT_LT(a.assembled_error, kClosed) << urdf;
+  // Which start assembled, the residuals and q (nq numbers) are said once.
+  ASSERT_FALSE(a.analysis.notes.empty());
+  const std::string& note = a.analysis.notes.front();
+  EXPECT_NE(note.find(urdf.string() + ": the loops are open at the zero configuration"), std::string::npos) << note;
+  EXPECT_NE(note.find("assembled from seeded start"), std::string::npos) << note;
+  EXPECT_NE(note.find("--assemble-from"), std::string::npos) << note;
+  EXPECT_NE(a.analysis.report_section.find("## Assembly"), std::string::npos);
+  // Every cut keeps its two in-plane rows (all of these are planar).
+  for (const topology::Cut& cut : a.tree.cuts)
+    EXPECT_EQ(cut.kept_rows.size(), cut.type == ir::CutType::Distance ? 1u : 2u) << cut.name;
+  // Deterministic: a second run gives the same configuration, bit for bit.
+  const Assembled b = assemble(read(urdf));
+  EXPECT_EQ(a.analysis.configurations.front(), b.analysis.configurations.front());
+  EXPECT_EQ(a.analysis.notes, b.analysis.notes);
+}
+
+INSTANTIATE_TEST_SUITE_P(Singular, AssemblyDrawn,
+                         ::testing::Values("fourbar_stretched", "fourbar_folded", "fourbar_collinear",
+                                           "slider_crank_in_line", "nfourbar_folded"));
+
+// ---- AssemblyModels ---------------------------------------------------------------
+
+TEST(AssemblyModels, AssembledDrawingsKeepTheZeroConfiguration) {
+  for (const testing::ModelCase& c : testing::loop_models()) {
+    SCOPED_TRACE(c.name);
+    const Assembled a = assemble(testing::read_model_case(c));
+    EXPECT_EQ(a.analysis.configurations.front(), reference::neutral_configuration(a.robot));
+    EXPECT_LT(a.assembled_error, kClosed);
+    EXPECT_EQ(a.analysis.report_section, "");
+    for (const std::string& note : a.analysis.notes) EXPECT_EQ(note.find("assembled from"), std::string::npos);
+    // Row selection used the assembly and both perturbed configurations.
+    EXPECT_EQ(a.analysis.configurations.size(), 3u);
+  }
+}
+
+// ---- AssemblyUnits --------------------------------------------------------------
+
+std::vector<std::vector<int>> kept_rows(const topology::Tree& tree) {
+  std::vector<std::vector<int>> rows;
+  for (const topology::Cut& cut : tree.cuts) rows.push_back(cut.kept_rows);
+  return rows;
+}
+
+// The angles of two configurations of the same mechanism (translations
+// divided by the length scale): the scaled problem is the same up to rounding,
+// so Levenberg-Marquardt takes the same steps to within a few eps x its
+// condition; 1e-8 leaves room for that over the iterations.
+void expect_same_configuration(const Assembled& a, const Assembled& b) {
+  Eigen::VectorXd qa = a.analysis.configurations.front(), qb = b.analysis.configurations.front();
+  for (const topology::Body& body : a.tree.bodies) {
+    const int translations = body.type == ir::JointType::Prismatic ? 1
+                             : body.type == ir::JointType::Floating ? 3
+                             : body.type == ir::JointType::Planar ? 2
+                                                                  : 0;
+    qa.segment(body.q_user, translations) /= a.length;
+    qb.segment(body.q_user, translations) /= b.length;
+  }
+  EXPECT_LT((qa - qb).cwiseAbs().maxCoeff(), 1e-8) << qa.transpose() << "\n" << qb.transpose();
+}
+
+TEST(AssemblyUnits, StretchedFourbarInMillimetresAndKilometres) {
+  const Assembled m = assemble(read(kAssemblyDir / "fourbar_stretched.urdf"));
+  const std::pair<const char*, double> others[] = {{"fourbar_stretched_mm.urdf", 1e-3},
+                                                   {"fourbar_stretched_km.urdf", 1e3}};
+  for (const auto& [other, s] : others) {
+    SCOPED_TRACE(other);
+    const Assembled a = assemble(read(kAssemblyDir / other));
+    EXPECT_LT(a.assembled_error, kClosed);
+    EXPECT_EQ(kept_rows(a.tree), kept_rows(m.tree));
+    expect_same_configuration(a, m);
+    EXPECT_NEAR(a.length / m.length, s, 1e-15 * s);
+  }
+}
+
+// Every loop model case and every singular drawing, scaled by 1e-3 and 1e3 in
+// memory: the same rows and the same assembled angles as drawn.
+TEST(AssemblyUnits, EveryModelAtThreeScales) {
+  std::vector<ir::Robot> robots;
+  for (const testing::ModelCase& c : testing::loop_models()) robots.push_back(testing::read_model_case(c));
+  for (const char* name : {"fourbar_folded", "fourbar_collinear", "slider_crank_in_line", "nfourbar_folded"})
+    robots.push_back(read(kAssemblyDir / (std::string(name) + ".urdf")));
+  for (const ir::Robot& robot : robots) {
+    const Assembled metres = assemble(robot);
+    for (double s : {1e-3, 1e3}) {
+      SCOPED_TRACE(robot.name + " x " + std::to_string(s));
+      const Assembled a = assemble(scaled(robot, s));
+      EXPECT_LT(a.assembled_error, kClosed);
+      EXPECT_EQ(kept_rows(a.tree), kept_rows(metres.tree));
+      expect_same_configuration(a, metres);
+    }
+  }
+}
+
+// ---- AssemblyStart (--assemble-from) -------------------------------------------
+
+struct TempFile {
+  fs::path path;
+  explicit TempFile(const std::string& text, const std::string& name = "q.txt")
+      : path(fs::path(::testing::TempDir()) / ("assembly_test_" + name)) {
+    std::ofstream(path) << text;
+  }
+  ~TempFile() { fs::remove(path); }
+};
+
+// The stretched crank-rocker assembled by hand: crank at 90 degrees, B =
+// (0, 0.4); C on the circle of radius 0.9 about D = (1.2, 0) at distance 1
+// from B.  The file gives the three absolute link angles as joint angles.
+Eigen::Vector3d hand_assembled_fourbar() {
+  const Eigen::Vector2d B(0.0, 0.4), D(1.2, 0.0);
+  const double b = 1.0, c = 0.9, e = (D - B).norm();
+  const double along = (b * b - c * c + e * e) / (2.0 * e), up = std::sqrt(b * b - along * along);
+  const Eigen::Vector2d u = (D - B) / e, n(-u.y(), u.x());
+  const Eigen::Vector2d C = B + along * u + up * n;
+  const double crank = M_PI / 2, coupler = std::atan2(C.y() - B.y(), C.x() - B.x());
+  const double rocker = std::atan2(D.y() - C.y(), D.x() - C.x());
+  return {crank, coupler - crank, rocker - coupler};
+}
+
+std::string numbers(const Eigen::VectorXd& q) {
+  std::string text = "# joint_A joint_B, then joint_C\n";
+  char buf[64];
+  for (int i = 0; i < q.size(); ++i) {
+    std::snprintf(buf, sizeof buf, "%.17g%s", q[i], i == 0 ? ", " : i == 1 ? "\n" : "\n");
+    text += buf;
+  }
+  return text;
+}
+
+TEST(AssemblyStart, AnAssembledStartIsUsedAsGiven) {
+  const Eigen::Vector3d q = hand_assembled_fourbar();
+  const TempFile file(numbers(q));
+  const Assembled a = assemble(read(kAssemblyDir / "fourbar_stretched.urdf"), file.path.string());
+  // Closed to rounding already (max |phi~| < 1e-12): used as given.
+  EXPECT_LT((a.analysis.configurations.front() - q).cwiseAbs().maxCoeff(), 1e-15);
+  EXPECT_LT(a.assembled_error, kClosed);
+  ASSERT_FALSE(a.analysis.notes.empty());
+  EXPECT_NE(a.analysis.notes.front().find("assembled from the start in " + file.path.string()), std::string::npos)
+      << a.analysis.notes.front();
+}
+
+// A start near one branch (the coupler above the ground) assembles on that
+// branch, not on the one the seeded starts find.
+TEST(AssemblyStart, TheStartChoosesTheBranch) {
+  const Eigen::Vector3d q = hand_assembled_fourbar();
+  const Eigen::Vector3d start = q + Eigen::Vector3d(0.05, -0.04, 0.03);
+  const TempFile file(numbers(start));
+  const Assembled a = assemble(read(kAssemblyDir / "fourbar_stretched.urdf"), file.path.string());
+  EXPECT_LT(a.assembled_error, kClosed);
+  // One degree of freedom: the crank may move, but the branch (sign of the
+  // coupler and rocker angles) stays, within 0.1 rad of the hand assembly.
+  EXPECT_LT((a.analysis.configurations.front() - q).cwiseAbs().maxCoeff(), 0.1)
+      << a.analysis.configurations.front().transpose();
+  const Assembled seeded = assemble(read(kAssemblyDir / "fourbar_stretched.urdf"));
+  EXPECT_GT((seeded.analysis.configurations.front() - q).cwiseAbs().maxCoeff(), 0.1);
+}
+
+// One error line: the file, the line where known, what is wrong, what to give.
+void expect_start_error(const std::string& text, const std::string& where, const std::string& what) {
+  const TempFile file(text);
+  const std::string path = file.path.string();
+  try {
+    assemble(read(kAssemblyDir / "fourbar_stretched.urdf"), path);
+    ADD_FAILURE() << "no error for:\n" << text;
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), path + where + ": " + what) << text;
+  }
+}
+
+TEST(AssemblyStart, BadFilesAreOneError) {
+  const std::string give = "give nq = 3 numbers (user order: joint_A, joint_B, joint_C)";
+  expect_start_error("0.1 0.2\n", "", "has 2 numbers; " + give);
+  expect_start_error("0.1, 0.2, 0.3, 0.4", "", "has 4 numbers; " + give);
+  expect_start_error("", "", "has 0 numbers; " + give);
+  expect_start_error("0.1\n0.2 x3\n0.3\n", ":2", "'x3' is not a finite number; " + give);
+  expect_start_error("0.1 0.2 1e999\n", ":1", "'1e999' is not a finite number; " + give);
+  expect_start_error("0.1 0.2 nan\n", ":1", "'nan' is not a finite number; " + give);
+  expect_start_error("0.1;0.2;0.3\n", ":1", "'0.1;0.2;0.3' is not a finite number; " + give);
+  const std::string missing = (fs::path(::testing::TempDir()) / "assembly_test_absent.txt").string();
+  try {
+    assemble(read(kAssemblyDir / "fourbar_stretched.urdf"), missing);
+    ADD_FAILURE() << "no error for a missing file";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), missing + ": cannot read: No such file or directory");
+  }
+}
+
+// ---- AssemblyFails ----------------------------------------------------------------
+
+// A two-link arm of reach 1 m whose tip must reach 2 m: no start closes it.
+TEST(AssemblyFails, InconsistentLoopIsAnErrorNamingWhatWasTried) {
+  const fs::path urdf = kSource / "tests" / "cli" / "inconsistent_loop.urdf";
+  for (bool with_start : {false, true}) {
+    const TempFile file("0.3 -0.2\n");
+    try {
+      assemble(read(urdf), with_start ? file.path.string() : "");
+      ADD_FAILURE() << "inconsistent_loop.urdf assembled";
+    } catch (const Error& e) {
+      const std::string what = e.what();
+      EXPECT_EQ(what.rfind(urdf.string() + ":", 0), 0u) << what;
+      for (const char* part : {"<loop_joint> 'too_far': the loop cannot be closed", "16 seeded starts",
+                               "residual of 1 here at best", "--assemble-from", "docs/assembly.md"})
+        EXPECT_NE(what.find(part), std::string::npos) << part << "\n" << what;
+      EXPECT_EQ(what.find("the start in") != std::string::npos, with_start) << what;
+      EXPECT_EQ(what.find('\n'), std::string::npos);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace jrgen
