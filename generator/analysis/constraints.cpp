@@ -6,6 +6,10 @@
 #include <cmath>
 #include <algorithm>
 #include <cstdint>
+#include <limits>
+#include <optional>
+#include <tuple>
+#include <utility>
 
 #include "analysis/runtime_model.hpp"
 #include "ir/error.hpp"
@@ -296,6 +300,11 @@ constexpr double kConverged = 1e-12;
 constexpr double kAssembled = 1e-9;
 constexpr double kPerturbed = 1e-10;
 constexpr double kCoincident = 1e-9;
+// A seeded start that assembles where a kept pivot of the Gram factor is
+// below 1e-8 of the largest diagonal entry (a singular value of the kept rows
+// of Phiq~ below about 1e-4 of the largest) has found a singular
+// configuration; later starts are tried for a regular one.
+constexpr double kRegularPivot = 1e-8;
 
 // Levenberg-Marquardt on 0.5 |phi~|^2 (b): the damping is mu = m |phi~|_2
 // (Fan & Yuan 2005: with mu proportional to |phi~| the iteration converges
@@ -360,6 +369,22 @@ class Assembler {
 
   // (b) from q; q holds the last accepted iterate.  Returns max |phi~| there.
   double solve(Eigen::VectorXd& q, int* iterations = nullptr);
+
+  // The smallest pivot of the Gram factor at q among the rows it keeps,
+  // relative to the largest diagonal entry of the Gram matrix: about
+  // (sigma_min / sigma_max)^2 of the kept rows of Phiq~; small where q is a
+  // singular configuration (a row independent only within its own, tiny,
+  // norm, as the in-line rows of a four-bar folded flat).
+  double smallest_pivot(const Eigen::VectorXd& q) {
+    std::vector<double> Phiq;
+    evaluate(q, nullptr, &Phiq);
+    const GramFactor f = gram_.factor(Phiq, kGramPivotTolerance, 0.0);
+    double largest = 0.0, smallest = INFINITY;
+    for (int r = 0; r < all_.rows; ++r) largest = std::max(largest, gram_.gram(Phiq, r, r));
+    for (double d : f.diag)
+      if (d > 0.0) smallest = std::min(smallest, d * d);
+    return largest > 0.0 ? smallest / largest : 1.0;
+  }
 
   static double max_abs(const Eigen::VectorXd& x) { return x.size() ? x.cwiseAbs().maxCoeff() : 0.0; }
 
@@ -473,13 +498,16 @@ struct Assembly {
   std::string start;  ///< which start assembled
   double residual = 0.0;  ///< max |phi| there (model units)
   bool moved = false;     ///< the drawing (zero configuration) was not assembled
+  bool singular = false;  ///< Phiq nearly loses rank at q (moved only; Assembler::smallest_pivot)
   double drawn_residual = 0.0;
   int drawn_worst = 0;  ///< cut with the largest residual in the drawing
 };
 
 // Tries the starts in order (c): the user's (--assemble-from), the zero
 // configuration, kSeededStarts seeded ones; the first that (b) brings below
-// kAssembled wins.  Throws "the loop cannot be closed" when none does.
+// kAssembled wins, but a seeded start that lands on a singular configuration
+// is kept only when no later one lands on a regular one.  Throws "the loop
+// cannot be closed" when none assembles.
 Assembly find_assembly(const ir::Robot& robot, const topology::Tree& tree, Assembler& as,
                        const Eigen::VectorXd* user_start, const std::string& user_file) {
   const Eigen::VectorXd q0 = neutral_configuration(tree);
@@ -490,6 +518,7 @@ Assembly find_assembly(const ir::Robot& robot, const topology::Tree& tree, Assem
   std::uint64_t state = kSeed;
   Eigen::VectorXd best_q;
   double best = std::numeric_limits<double>::infinity();
+  std::optional<Assembly> singular;
   const int first = user_start ? -1 : 0;
   for (int k = first; k <= kSeededStarts; ++k) {
     Eigen::VectorXd q;
@@ -497,21 +526,27 @@ Assembly find_assembly(const ir::Robot& robot, const topology::Tree& tree, Assem
     else if (k == 0) q = q0;
     else q = perturbed(tree, as.scale(), q0, M_PI * std::min(1.0, 0.0625 * (1 << std::min(k, 4))), state);
     const double r = as.solve(q);
-    if (r < kAssembled) {
-      wrap_angles(tree, q);
-      out.q = q;
-      out.start = k < 0 ? "the start in " + user_file
+    if (!(r < kAssembled)) {
+      if (!(r >= best)) {
+        best = r;
+        best_q = q;
+      }
+      continue;
+    }
+    wrap_angles(tree, q);
+    Assembly found = out;
+    found.q = q;
+    found.start = k < 0 ? "the start in " + user_file
                         : k == 0 ? "the zero configuration" : fmt::format("seeded start {} of {}", k, kSeededStarts);
-      const std::vector<double> per_cut = cut_residuals(tree, as, q).per_cut;
-      out.residual = *std::max_element(per_cut.begin(), per_cut.end());
-      out.moved = k != 0;
-      return out;
-    }
-    if (!(r >= best)) {
-      best = r;
-      best_q = q;
-    }
+    const std::vector<double> per_cut = cut_residuals(tree, as, q).per_cut;
+    found.residual = *std::max_element(per_cut.begin(), per_cut.end());
+    found.moved = k != 0;
+    if (k == 0) return found;  // the drawing, as before: no rank test
+    found.singular = as.smallest_pivot(q) < kRegularPivot;
+    if (k < 0 || !found.singular) return found;
+    if (!singular) singular = found;
   }
+  if (singular) return *singular;
   const CutResiduals at_best = cut_residuals(tree, as, best_q.size() ? best_q : q0);
   const ir::CutJoint& ic = robot.cuts[tree.cuts[at_best.worst].cut_ir];
   throw Error(ic.where, "loop_joint", ic.name,
@@ -602,7 +637,8 @@ void describe_assembly(const ir::Robot& robot, const topology::Tree& tree, const
       ? fmt::format("the loops are open at the zero configuration (largest residual {:.3g}, loop joint '{}')",
                     a.drawn_residual, tree.cuts[a.drawn_worst].name)
       : "the zero configuration is assembled";
-  const std::string how = fmt::format("{}; assembled from {} (largest residual {:.1e})", drawn, a.start, a.residual);
+  std::string how = fmt::format("{}; assembled from {} (largest residual {:.1e})", drawn, a.start, a.residual);
+  if (a.singular) how += ", a singular configuration (Phiq nearly loses rank there)";
   std::string values;
   constexpr int kNoteValues = 24;
   for (int i = 0; i < tree.nq && i < kNoteValues; ++i) values += fmt::format("{}{:.10g}", i ? " " : "", a.q[i]);

@@ -17,6 +17,7 @@
 //                      loop joint, what was tried and --assemble-from.
 #include <gtest/gtest.h>
 
+#include <Eigen/SVD>
 #include <Eigen/Geometry>
 #include <cmath>
 #include <cstdio>
@@ -87,6 +88,44 @@ double closure_error(const ir::Robot& robot, const ir::CutJoint& cut, const Eige
   return INFINITY;
 }
 
+// The closure conditions of the planar drawings' cuts as a vector (revolute:
+// the gap d, then a_k x a_l; distance: |d| - D), from the reference's link
+// poses, lengths over `length`.
+Eigen::VectorXd closure_vector(const ir::Robot& robot, const Eigen::VectorXd& q, double length,
+                               const std::vector<double>& distances) {
+  const std::vector<reference::LinkPose> poses = reference::link_poses(robot, q);
+  std::vector<double> out;
+  for (std::size_t c = 0; c < robot.cuts.size(); ++c) {
+    const ir::CutJoint& cut = robot.cuts[c];
+    const reference::LinkPose& k = poses[cut.link_k];
+    const reference::LinkPose& l = poses[cut.link_l];
+    const Eigen::Vector3d d = (l.p_WL + l.R_WL * cut.frame_l.p - k.p_WL - k.R_WL * cut.frame_k.p) / length;
+    const Eigen::Vector3d w = (k.R_WL * cut.frame_k.R * cut.axis).cross(l.R_WL * cut.frame_l.R * cut.axis);
+    if (cut.type == ir::CutType::Distance) out.push_back(d.norm() - distances[c] / length);
+    else if (cut.type == ir::CutType::Revolute) out.insert(out.end(), {d.x(), d.y(), d.z(), w.x(), w.y(), w.z()});
+    else ADD_FAILURE() << "closure_vector: only revolute and distance cuts";
+  }
+  return Eigen::Map<const Eigen::VectorXd>(out.data(), static_cast<Eigen::Index>(out.size()));
+}
+
+// Singular values of the Jacobian of closure_vector at q (central
+// differences in every joint coordinate: the drawings have only revolute and
+// prismatic joints; step 1e-5, truncation error ~1e-10, far below the 1e-4
+// relative gap the callers test).
+Eigen::VectorXd closure_singular_values(const ir::Robot& robot, const Eigen::VectorXd& q, double length,
+                                        const std::vector<double>& distances) {
+  const double h = 1e-5;
+  const Eigen::Index m = closure_vector(robot, q, length, distances).size();
+  Eigen::MatrixXd J(m, q.size());
+  for (Eigen::Index i = 0; i < q.size(); ++i) {
+    Eigen::VectorXd qp = q, qm = q;
+    qp[i] += h;
+    qm[i] -= h;
+    J.col(i) = (closure_vector(robot, qp, length, distances) - closure_vector(robot, qm, length, distances)) / (2 * h);
+  }
+  return Eigen::JacobiSVD<Eigen::MatrixXd>(J).singularValues();
+}
+
 struct Assembled {
   ir::Robot robot;
   topology::Tree tree;
@@ -135,9 +174,26 @@ TEST_P(AssemblyDrawn, ClosesEveryLoop) {
   EXPECT_NE(note.find("assembled from seeded start"), std::string::npos) << note;
   EXPECT_NE(note.find("--assemble-from"), std::string::npos) << note;
   EXPECT_NE(a.analysis.report_section.find("## Assembly"), std::string::npos);
-  // Every cut keeps its two in-plane rows (all of these are planar).
-  for (const topology::Cut& cut : a.tree.cuts)
+  // Every cut keeps its two in-plane rows (all of these are planar) ...
+  std::size_t kept = 0;
+  std::vector<double> distances;
+  for (const topology::Cut& cut : a.tree.cuts) {
     EXPECT_EQ(cut.kept_rows.size(), cut.type == ir::CutType::Distance ? 1u : 2u) << cut.name;
+    kept += cut.kept_rows.size();
+    distances.push_back(cut.distance);
+  }
+  // ... and the configuration used is regular: the closure Jacobian has that
+  // many singular values above 1e-4 of the largest (jrgen prefers a regular
+  // assembly; at the drawing, every one of these has a zero singular value).
+  const Eigen::VectorXd sigma =
+      closure_singular_values(a.robot, a.analysis.configurations.front(), a.length, distances);
+  ASSERT_GE(sigma.size(), static_cast<Eigen::Index>(kept));
+  EXPECT_GT(sigma[kept - 1], 1e-4 * sigma[0]) << sigma.transpose();
+  if (sigma.size() > static_cast<Eigen::Index>(kept)) EXPECT_LT(sigma[kept], 1e-8 * sigma[0]) << sigma.transpose();
+  const Eigen::VectorXd drawn_sigma =
+      closure_singular_values(a.robot, reference::neutral_configuration(a.robot), a.length, distances);
+  EXPECT_LE(drawn_sigma[kept - 1], 1e-8 * drawn_sigma[0]) << drawn_sigma.transpose();
+  EXPECT_EQ(note.find("singular configuration"), std::string::npos) << note;
   // Deterministic: a second run gives the same configuration, bit for bit.
   const Assembled b = assemble(read(urdf));
   EXPECT_EQ(a.analysis.configurations.front(), b.analysis.configurations.front());
