@@ -219,6 +219,17 @@ TEST(AssemblyModels, AssembledDrawingsKeepTheZeroConfiguration) {
   }
 }
 
+// IFToMM A02 drawn flat: assembled but singular at q = 0.  The drawing is kept
+// (as for every assembled drawing) and each cut keeps its two in-plane rows,
+// found at the perturbed configurations.
+TEST(AssemblyModels, FlatNFourbarKeepsItsDrawing) {
+  const Assembled a = assemble(read(kAssemblyDir / "nfourbar_flat.urdf"));
+  EXPECT_EQ(a.analysis.configurations.front(), reference::neutral_configuration(a.robot));
+  EXPECT_LT(a.drawn_error, 1e-15);
+  EXPECT_EQ(a.analysis.report_section, "");
+  for (const topology::Cut& cut : a.tree.cuts) EXPECT_EQ(cut.kept_rows, (std::vector<int>{0, 1})) << cut.name;
+}
+
 // ---- AssemblyUnits --------------------------------------------------------------
 
 std::vector<std::vector<int>> kept_rows(const topology::Tree& tree) {
@@ -263,7 +274,8 @@ TEST(AssemblyUnits, StretchedFourbarInMillimetresAndKilometres) {
 TEST(AssemblyUnits, EveryModelAtThreeScales) {
   std::vector<ir::Robot> robots;
   for (const testing::ModelCase& c : testing::loop_models()) robots.push_back(testing::read_model_case(c));
-  for (const char* name : {"fourbar_folded", "fourbar_collinear", "slider_crank_in_line", "nfourbar_folded"})
+  for (const char* name :
+       {"fourbar_folded", "fourbar_collinear", "slider_crank_in_line", "nfourbar_folded", "nfourbar_flat"})
     robots.push_back(read(kAssemblyDir / (std::string(name) + ".urdf")));
   for (const ir::Robot& robot : robots) {
     const Assembled metres = assemble(robot);
@@ -367,6 +379,44 @@ TEST(AssemblyStart, BadFilesAreOneError) {
     ADD_FAILURE() << "no error for a missing file";
   } catch (const Error& e) {
     EXPECT_EQ(std::string(e.what()), missing + ": cannot read: No such file or directory");
+  }
+}
+
+// Quaternions in the start are normalized; an all-zero one is an error.  The
+// HMMWV (a floating chassis, four ball joints) drawn assembled, given as its
+// zero configuration with every quaternion scaled by 2: assembled at once.
+TEST(AssemblyStart, QuaternionsAreNormalized) {
+  const fs::path models = kSource / "models";
+  const ir::Robot robot = read(models / "hmmwv14.urdf", models / "hmmwv14.cuts.xml");
+  const topology::Tree tree = topology::build_tree(robot);
+  const Eigen::VectorXd q0 = reference::neutral_configuration(robot);
+  std::string text;
+  for (int i = 0; i < q0.size(); ++i) text += std::to_string(2.0 * q0[i]) + (i % 4 == 3 ? "\n" : " ");
+  {
+    const TempFile file(text);
+    const Assembled a = assemble(robot, file.path.string());
+    EXPECT_EQ(a.analysis.configurations.front(), q0);
+  }
+  int at = -1;  // first coordinate of the floating joint's quaternion
+  std::string joint;
+  for (const topology::Body& b : tree.bodies)
+    if (b.type == ir::JointType::Floating) {
+      at = b.q_user + 3;
+      joint = b.joint_name;
+    }
+  ASSERT_GE(at, 0);
+  Eigen::VectorXd q = q0;
+  q.segment<4>(at).setZero();
+  std::string zero;
+  for (int i = 0; i < q.size(); ++i) zero += std::to_string(q[i]) + "\n";
+  const TempFile file(zero);
+  try {
+    assemble(robot, file.path.string());
+    ADD_FAILURE() << "no error for a zero quaternion";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), file.path.string() + ": numbers " + std::to_string(at + 1) + " to " +
+                                         std::to_string(at + 4) + " (the quaternion w x y z of joint '" + joint +
+                                         "') are all 0; give a rotation");
   }
 }
 
