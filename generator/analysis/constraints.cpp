@@ -497,11 +497,28 @@ struct Assembly {
   Eigen::VectorXd q;  ///< assembled, user order
   std::string start;  ///< which start assembled
   double residual = 0.0;  ///< max |phi| there (model units)
-  bool moved = false;     ///< the drawing (zero configuration) was not assembled
+  bool moved = false;     ///< q is not the drawing (zero configuration), or came from --assemble-from
   bool singular = false;  ///< Phiq nearly loses rank at q (moved only; Assembler::smallest_pivot)
   double drawn_residual = 0.0;
-  int drawn_worst = 0;  ///< cut with the largest residual in the drawing
+  int drawn_worst = 0;         ///< cut with the largest residual in the drawing
+  double user_residual = 0.0;  ///< where the --assemble-from start failed, max |phi| reached from it
 };
+
+// Start k of (c): -1 the user's, 0 the zero configuration q0, 1..kSeededStarts
+// seeded (drawn in turn from `state`).
+Eigen::VectorXd start_configuration(int k, const topology::Tree& tree, const Scaling& scale, const Eigen::VectorXd& q0,
+                                    const Eigen::VectorXd* user_start, std::uint64_t& state) {
+  if (k < 0) return *user_start;
+  if (k == 0) return q0;
+  return perturbed(tree, scale, q0, M_PI * std::min(1.0, 0.0625 * (1 << std::min(k, 4))), state);
+}
+
+std::string start_name(int k, const std::string& user_file) {
+  if (k < 0) return "the start in " + user_file;
+  return k == 0 ? "the zero configuration" : fmt::format("seeded start {} of {}", k, kSeededStarts);
+}
+
+double largest(const std::vector<double>& x) { return x.empty() ? 0.0 : *std::max_element(x.begin(), x.end()); }
 
 // Tries the starts in order (c): the user's (--assemble-from), the zero
 // configuration, kSeededStarts seeded ones; the first that (b) brings below
@@ -515,32 +532,25 @@ Assembly find_assembly(const ir::Robot& robot, const topology::Tree& tree, Assem
   const CutResiduals drawn = cut_residuals(tree, as, q0);
   out.drawn_worst = drawn.worst;
   out.drawn_residual = drawn.per_cut[drawn.worst];
+  const bool drawn_assembled = as.residual(q0) < kAssembled;
   std::uint64_t state = kSeed;
   Eigen::VectorXd best_q;
   double best = std::numeric_limits<double>::infinity();
   std::optional<Assembly> singular;
-  const int first = user_start ? -1 : 0;
-  for (int k = first; k <= kSeededStarts; ++k) {
-    Eigen::VectorXd q;
-    if (k < 0) q = *user_start;
-    else if (k == 0) q = q0;
-    else q = perturbed(tree, as.scale(), q0, M_PI * std::min(1.0, 0.0625 * (1 << std::min(k, 4))), state);
+  for (int k = user_start ? -1 : 0; k <= kSeededStarts; ++k) {
+    Eigen::VectorXd q = start_configuration(k, tree, as.scale(), q0, user_start, state);
     const double r = as.solve(q);
     if (!(r < kAssembled)) {
-      if (!(r >= best)) {
-        best = r;
-        best_q = q;
-      }
+      if (k < 0) out.user_residual = largest(cut_residuals(tree, as, q).per_cut);
+      if (!(r >= best)) best = r, best_q = q;
       continue;
     }
     wrap_angles(tree, q);
     Assembly found = out;
     found.q = q;
-    found.start = k < 0 ? "the start in " + user_file
-                        : k == 0 ? "the zero configuration" : fmt::format("seeded start {} of {}", k, kSeededStarts);
-    const std::vector<double> per_cut = cut_residuals(tree, as, q).per_cut;
-    found.residual = *std::max_element(per_cut.begin(), per_cut.end());
-    found.moved = k != 0;
+    found.start = start_name(k, user_file);
+    found.residual = largest(cut_residuals(tree, as, q).per_cut);
+    found.moved = k != 0 || !drawn_assembled;
     if (k == 0) return found;  // the drawing, as before: no rank test
     found.singular = as.smallest_pivot(q) < kRegularPivot;
     if (k < 0 || !found.singular) return found;
@@ -631,13 +641,16 @@ void default_distances(const ir::Robot& robot, topology::Tree& tree) {
 // The assembly note (stderr) and section (--report) when the configuration
 // used is not the drawing, or came from --assemble-from.
 void describe_assembly(const ir::Robot& robot, const topology::Tree& tree, const Assembly& a,
-                       ConstraintAnalysis& out) {
+                       const std::string& user_file, ConstraintAnalysis& out) {
   const std::vector<std::string> names = coordinate_names(tree);
   const std::string drawn = a.drawn_residual > 0.0
       ? fmt::format("the loops are open at the zero configuration (largest residual {:.3g}, loop joint '{}')",
                     a.drawn_residual, tree.cuts[a.drawn_worst].name)
       : "the zero configuration is assembled";
   std::string how = fmt::format("{}; assembled from {} (largest residual {:.1e})", drawn, a.start, a.residual);
+  if (a.user_residual > 0.0)
+    how += fmt::format(" after the start in {} did not assemble (largest residual {:.3g} from it)", user_file,
+                       a.user_residual);
   if (a.singular) how += ", a singular configuration (Phiq nearly loses rank there)";
   std::string values;
   constexpr int kNoteValues = 24;
@@ -677,7 +690,7 @@ ConstraintAnalysis analyze_constraints(const ir::Robot& robot, topology::Tree& t
   Eigen::VectorXd user_start;
   if (!start_file.empty()) user_start = read_start_configuration(start_file, tree);
   const Assembly assembly = find_assembly(robot, tree, as, start_file.empty() ? nullptr : &user_start, start_file);
-  if (assembly.moved) describe_assembly(robot, tree, assembly, out);
+  if (assembly.moved) describe_assembly(robot, tree, assembly, start_file, out);
   std::vector<Eigen::VectorXd> configs = {assembly.q};
   {
     std::uint64_t state = 0x6a72676e;  // "jrgn"

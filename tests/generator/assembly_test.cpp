@@ -230,6 +230,22 @@ TEST(AssemblyModels, FlatNFourbarKeepsItsDrawing) {
   for (const topology::Cut& cut : a.tree.cuts) EXPECT_EQ(cut.kept_rows, (std::vector<int>{0, 1})) << cut.name;
 }
 
+// A drawing that is nearly closed (the four-bar's ground pivot moved 10 um)
+// is closed from the zero configuration, and the note says the configuration
+// used is not the drawing.
+TEST(AssemblyModels, NearlyClosedDrawingIsClosedWithANote) {
+  ir::Robot robot = read(kSource / "models" / "fourbar.urdf");
+  robot.cuts[0].frame_l.p.x() += 1e-5;
+  const Assembled a = assemble(robot);
+  EXPECT_LT(a.assembled_error, kClosed);
+  EXPECT_GT(a.drawn_error, 0.9e-5 / a.length);
+  ASSERT_FALSE(a.analysis.notes.empty());
+  EXPECT_NE(a.analysis.notes.front().find("the loops are open at the zero configuration (largest residual 1e-05, "
+                                          "loop joint 'joint_D'); assembled from the zero configuration"),
+            std::string::npos)
+      << a.analysis.notes.front();
+}
+
 // ---- AssemblyUnits --------------------------------------------------------------
 
 std::vector<std::vector<int>> kept_rows(const topology::Tree& tree) {
@@ -350,6 +366,23 @@ TEST(AssemblyStart, TheStartChoosesTheBranch) {
       << a.analysis.configurations.front().transpose();
   const Assembled seeded = assemble(read(kAssemblyDir / "fourbar_stretched.urdf"));
   EXPECT_GT((seeded.analysis.configurations.front() - q).cwiseAbs().maxCoeff(), 0.1);
+}
+
+// A start that does not assemble (the stretched drawing itself, a stationary
+// point) is followed by the zero configuration and the seeded starts; the note
+// says so.
+TEST(AssemblyStart, AFailedStartIsFollowedByTheOthers) {
+  const TempFile file("0 0 0\n");
+  const Assembled a = assemble(read(kAssemblyDir / "fourbar_stretched.urdf"), file.path.string());
+  EXPECT_LT(a.assembled_error, kClosed);
+  ASSERT_FALSE(a.analysis.notes.empty());
+  EXPECT_NE(a.analysis.notes.front().find("; assembled from seeded start 1 of 16 (largest residual "),
+            std::string::npos)
+      << a.analysis.notes.front();
+  EXPECT_NE(a.analysis.notes.front().find(" after the start in " + file.path.string() +
+                                          " did not assemble (largest residual 1.1 from it)"),
+            std::string::npos)
+      << a.analysis.notes.front();
 }
 
 // One error line: the file, the line where known, what is wrong, what to give.
