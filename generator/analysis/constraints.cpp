@@ -219,7 +219,6 @@ class GramSystem {
   std::vector<std::vector<int>> pattern_, row_list_;
 };
 
-
 // ---- Units and tolerances (docs/assembly.md, "Tolerances") --------------------
 //
 // Rows measure lengths (point, across-axis and distance rows, in the model's
@@ -342,7 +341,6 @@ class Assembler {
         scale_(scaling(tree)) {}
 
   const Scaling& scale() const { return scale_; }
-  const AllRows& rows() const { return all_; }
   const GramSystem& gram() const { return gram_; }
 
   // phi~ and the packed Phiq~ (a) at q (either may be null).
@@ -368,7 +366,7 @@ class Assembler {
   }
 
   // (b) from q; q holds the last accepted iterate.  Returns max |phi~| there.
-  double solve(Eigen::VectorXd& q, int* iterations = nullptr);
+  double solve(Eigen::VectorXd& q);
 
   // The smallest pivot of the Gram factor at q among the rows it keeps,
   // relative to the largest diagonal entry of the Gram matrix: about
@@ -411,14 +409,13 @@ class Assembler {
   const Scaling scale_;
 };
 
-double Assembler::solve(Eigen::VectorXd& q, int* iterations) {
+double Assembler::solve(Eigen::VectorXd& q) {
   Eigen::VectorXd phi, phi_trial;
   std::vector<double> Phiq, Phiq_trial;
   evaluate(q, &phi, &Phiq);
   const Eigen::Map<const Eigen::VectorXd> D(scale_.dof_user.data(), tree_.nv);
   double m = kInitialDamping, nu = 2.0;
-  int it = 0;
-  for (; it < kMaxIterations; ++it) {
+  for (int it = 0; it < kMaxIterations; ++it) {
     const double r = max_abs(phi);
     if (!std::isfinite(r) || r < kConverged || tree_.nv == 0) break;
     // The damped step of (b), dv~ = -Phiq~^T (Phiq~ Phiq~^T + mu I)^-1 phi~.
@@ -443,7 +440,6 @@ double Assembler::solve(Eigen::VectorXd& q, int* iterations) {
       if (m > kMaxDamping) break;
     }
   }
-  if (iterations) *iterations = it;
   return max_abs(phi);
 }
 
@@ -457,7 +453,7 @@ void wrap_angles(const topology::Tree& tree, Eigen::VectorXd& q) {
   }
 }
 
-// The zero configuration moved by dv: rotations uniform in [-a, a] rad,
+// q0 moved by a seeded dv: rotations uniform in [-a, a] rad,
 // translations in [-a L, a L] (L from the scaling).
 Eigen::VectorXd perturbed(const topology::Tree& tree, const Scaling& scale, const Eigen::VectorXd& q0, double a,
                           std::uint64_t& state) {
