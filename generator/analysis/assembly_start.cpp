@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -34,6 +35,8 @@ std::string expected(const topology::Tree& tree) {
 }  // namespace
 
 Eigen::VectorXd read_start_configuration(const std::string& path, const topology::Tree& tree) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw Error(path + ": cannot read: Is a directory");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path + ": cannot read: " + std::strerror(errno));
   std::vector<double> values;
@@ -48,7 +51,8 @@ Eigen::VectorXd read_start_configuration(const std::string& path, const topology
       const double x = std::strtod(word.c_str(), &end);
       if (end != word.c_str() + word.size() || !std::isfinite(x))
         throw Error(ir::SourceLocation{path, line_number}, "", "",
-                    fmt::format("'{}' is not a finite number; give {}", word, expected(tree)));
+                    fmt::format("'{}' is not a finite number; give {}",
+                                word.size() > 40 ? word.substr(0, 40) + "..." : word, expected(tree)));
       values.push_back(x);
     }
   }
@@ -62,8 +66,8 @@ Eigen::VectorXd read_start_configuration(const std::string& path, const topology
     const double norm = q.segment<4>(at).norm();
     if (!(norm > 0.0) || !std::isfinite(norm))
       throw Error(ir::SourceLocation{path, 0}, "", "",
-                  fmt::format("numbers {} to {} (the quaternion w x y z of joint '{}') are all 0; give a rotation",
-                              at + 1, at + 4, b.joint_name));
+                  fmt::format("numbers {} to {} (the quaternion w x y z of joint '{}') {}; give a rotation",
+                              at + 1, at + 4, b.joint_name, norm > 0.0 ? "are too large to normalize" : "are all 0"));
     q.segment<4>(at) /= norm;
   }
   return q;

@@ -413,6 +413,13 @@ TEST(AssemblyStart, BadFilesAreOneError) {
   } catch (const Error& e) {
     EXPECT_EQ(std::string(e.what()), missing + ": cannot read: No such file or directory");
   }
+  const std::string folder = ::testing::TempDir();
+  try {
+    assemble(read(kAssemblyDir / "fourbar_stretched.urdf"), folder);
+    ADD_FAILURE() << "no error for a folder";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), folder + ": cannot read: Is a directory");
+  }
 }
 
 // Quaternions in the start are normalized; an all-zero one is an error.  The
