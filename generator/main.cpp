@@ -31,7 +31,7 @@ constexpr const char* kUsage =
     "usage: jrgen MODEL.urdf [--cuts CUTS.xml] -o OUT.cpp [--namespace NAME]\n"
     "             [--gravity GX,GY,GZ] [--method llt|ldlt] [--report OPS.md]\n"
     "             [--strict-constraints] [--bound-mass KG] [--bound-inertia KGM2]\n"
-    "             [--threads auto|1|N] [--divide]\n";
+    "             [--assemble-from Q.txt] [--threads auto|1|N] [--divide]\n";
 
 constexpr const char* kHelp =
     "Generates a loop-free C++ solver of the equations of motion of a mechanism\n"
@@ -53,6 +53,10 @@ constexpr const char* kHelp =
     "  --bound-inertia KGM2  raise every principal moment of inertia (about the\n"
     "                        centre of mass) below KGM2 to KGM2 (MuJoCo's\n"
     "                        boundinertia)\n"
+    "  --assemble-from Q.txt start the assembly of the loops at Q.txt: nq numbers\n"
+    "                        in user order, separated by spaces, newlines or\n"
+    "                        commas (default: the zero configuration, then\n"
+    "                        seeded starts; docs/assembly.md)\n"
     "  --threads auto|1|N    (extension) Corollary 3 parallel variant with OpenMP\n"
     "                        tasks over subtrees: auto (default) for large trees,\n"
     "                        1 never, N >= 2 always, with N threads\n"
@@ -69,6 +73,7 @@ struct Arguments {
   std::string name_space;
   bool namespace_given = false;
   std::string report;
+  std::string assemble_from;
   Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
   jrgen::emit::Method method = jrgen::emit::Method::kLLT;
   bool strict_constraints = false;
@@ -127,6 +132,7 @@ Arguments parse_arguments(int argc, char** argv) {
     }
     else if (a == "--gravity") args.gravity = parse_gravity(value(i));
     else if (a == "--report") args.report = value(i);
+    else if (a == "--assemble-from") args.assemble_from = value(i);
     else if (a == "--strict-constraints") args.strict_constraints = true;
     else if (a == "--divide") args.divide = true;
     else if (a == "--bound-mass") args.bounds.mass = parse_bound(a, value(i));
@@ -281,6 +287,7 @@ int run(const Arguments& args) {
     const fs::path hpp = fs::path(args.output).replace_extension(".hpp");
     std::vector<NamedPath> inputs = {{"the model", args.model}};
     if (!args.cuts.empty()) inputs.push_back({"the --cuts file", args.cuts});
+    if (!args.assemble_from.empty()) inputs.push_back({"the --assemble-from file", args.assemble_from});
     std::vector<NamedPath> outputs = {{"-o", args.output}, {"the header of -o", hpp.string()}};
     if (!args.report.empty()) outputs.push_back({"--report", args.report});
     check_outputs_are_distinct(inputs, outputs);
@@ -291,7 +298,7 @@ int run(const Arguments& args) {
   jrgen::analysis::check_finite_dynamics(robot, tree, args.gravity);
   // Closed loops: default distances, assembly, redundant rows (notes on stderr).
   const jrgen::analysis::ConstraintAnalysis analysis =
-      jrgen::analysis::analyze_constraints(robot, tree, args.strict_constraints);
+      jrgen::analysis::analyze_constraints(robot, tree, args.strict_constraints, args.assemble_from);
 
   const fs::path cpp_path(args.output);
   fs::path hpp_path = cpp_path;
@@ -310,7 +317,8 @@ int run(const Arguments& args) {
   AtomicOutput out;
   out.add(cpp_path, solver.source);
   out.add(hpp_path, solver.header);
-  if (!args.report.empty()) out.add(args.report, jrgen::emit::operation_report(robot, tree, solver));
+  if (!args.report.empty())
+    out.add(args.report, jrgen::emit::operation_report(robot, tree, solver) + analysis.report_section);
   out.commit();
   // Notes only after success: a failing run prints exactly one line.
   for (const std::string& note : tree.notes) std::cerr << "jrgen: note: " << note << '\n';

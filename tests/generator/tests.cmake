@@ -1,8 +1,8 @@
 # CLI and golden tests: they run the real jrgen binary (tests/generator/cli_test.cpp,
-# golden_test.cpp; helpers in tests/cli/run_jrgen.hpp).  Included at the end of
+# golden_test.cpp, assembly_cli_test.cpp; helpers in tests/cli/run_jrgen.hpp).  Included at the end of
 # tests/CMakeLists.txt, so relative paths are relative to tests/.
 
-foreach(_t cli_test golden_test)
+foreach(_t cli_test golden_test assembly_cli_test)
   jrgen_test(${_t} generator/${_t}.cpp)
   target_include_directories(${_t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
   target_compile_definitions(${_t} PRIVATE JRGEN_EXECUTABLE="$<TARGET_FILE:jrgen>")
