@@ -31,7 +31,8 @@ constexpr const char* kUsage =
     "usage: jrgen MODEL.urdf [--cuts CUTS.xml] -o OUT.cpp [--namespace NAME]\n"
     "             [--gravity GX,GY,GZ] [--method llt|ldlt] [--report OPS.md]\n"
     "             [--strict-constraints] [--bound-mass KG] [--bound-inertia KGM2]\n"
-    "             [--assemble-from Q.txt] [--threads auto|1|N] [--divide]\n";
+    "             [--assemble-from Q.txt] [--singular off|proximal]\n"
+    "             [--threads auto|1|N] [--divide]\n";
 
 constexpr const char* kHelp =
     "Generates a loop-free C++ solver of the equations of motion of a mechanism\n"
@@ -64,6 +65,11 @@ constexpr const char* kHelp =
     "                        the paper does, instead of multiplying by its\n"
     "                        reciprocal: one rounding per entry, a few % slower;\n"
     "                        steps that run the runtime's loops keep reciprocals\n"
+    "  --singular off|proximal  (extension) at singular or redundant constraint\n"
+    "                        rows: off (default) returns status 2; proximal\n"
+    "                        solves for the minimum-norm lambda by a proximal-point\n"
+    "                        iteration, returns 0 and sets last_solve_regularized()\n"
+    "                        (docs/singular.md)\n"
     "  --help, --version\n";
 
 struct Arguments {
@@ -80,6 +86,7 @@ struct Arguments {
   int threads = 0;  ///< 0: auto
   bool divide = false;
   jrgen::topology::MassBounds bounds;
+  bool singular_proximal = false;
 };
 
 // `text` as a whole is one finite number.
@@ -137,6 +144,11 @@ Arguments parse_arguments(int argc, char** argv) {
     else if (a == "--divide") args.divide = true;
     else if (a == "--bound-mass") args.bounds.mass = parse_bound(a, value(i));
     else if (a == "--bound-inertia") args.bounds.inertia = parse_bound(a, value(i));
+    else if (a == "--singular") {
+      const std::string m = value(i);
+      if (m != "off" && m != "proximal") throw jrgen::Error("--singular: expected off or proximal, got '" + m + "'");
+      args.singular_proximal = m == "proximal";
+    }
     else if (a == "--threads") {
       const std::string t = value(i);
       if (t == "auto") {
@@ -309,6 +321,7 @@ int run(const Arguments& args) {
   options.method = args.method;
   options.threads = args.threads;
   options.divide = args.divide;
+  options.singular_proximal = args.singular_proximal;
   options.source_name = fs::path(args.model).filename().string();
   options.cuts_name = args.cuts.empty() ? "" : fs::path(args.cuts).filename().string();
   options.header_name = hpp_path.filename().string();

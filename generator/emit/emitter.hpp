@@ -31,6 +31,11 @@ struct Options {
   /// 1-3) instead of multiplying by its reciprocal.  Steps that run the
   /// runtime's loops keep the reciprocals (Solver::notes says which).
   bool divide = false;
+  /// --singular proximal: when T^T T is singular or nearly so (a pivot or
+  /// the pivots' spread fails its test), Step 3.4 solves for lambda by the
+  /// proximal-point iteration instead of returning status 2, and the API
+  /// gains last_solve_regularized() (docs/singular.md).  Off: status 2.
+  bool singular_proximal = false;
 };
 
 /// Floating-point operations of emitted code, counted as written.

@@ -87,6 +87,44 @@ struct TByDofs {
   }
 };
 
+// The failure reports that name a kept row (kRowLabel: its loop joint and
+// row), shared by both shapes of Step 3.  Labels print with at most 220
+// characters: with the rest they fit g_error whatever the names.
+std::string row_failure_functions() {
+  return "// Constraint rows whose T^T T pivot fails: the loop joint is named.\n"
+         "int constraints_singular(std::int32_t row, double pivot) {\n"
+         "  std::snprintf(g_error, sizeof g_error,\n"
+         "                \"constraint rows singular (T^T T not positive definite) at %.220s; pivot %.17g\",\n"
+         "                kRowLabel[row], pivot);\n"
+         "  return kConstraintsSingular;\n"
+         "}\n\n"
+         "int fail_row(int status, const char* what, std::int32_t row, double value) {\n"
+         "  std::snprintf(g_error, sizeof g_error, \"%.100s at %.220s, value %.17g\", what, kRowLabel[row], value);\n"
+         "  return status;\n"
+         "}\n\n";
+}
+
+// After Step 3.4 (a): T^T T singular to working precision although every
+// pivot passed its own test (kSpreadLimit, jr::pivot_spread).  Winv holds
+// the reciprocal pivots (inverse) or the pivots, of L_W D_W L_W^T (power 1)
+// or L_W L_W^T (power 2); `order` maps elimination positions to kept rows.
+std::string check_digits_W(bool inverse, int power, const char* order) {
+  return fmt::format(
+      "// After Step 3.4 (a): T^T T singular to working precision although every pivot\n"
+      "// passed its own test (kSpreadLimit); names the loop joint and row of the\n"
+      "// smallest pivot and gives d_min / d_max.\n"
+      "int check_digits_W(const double* Winv) {{\n"
+      "  double ratio = 0.0;\n"
+      "  const std::int32_t j = jr::pivot_spread(Winv, nc, {}, {}, kSpreadLimit, &ratio);\n"
+      "  if (j < 0) return kSuccess;\n"
+      "  return fail_row(kConstraintsSingular,\n"
+      "                  \"constraint rows singular to working precision (smallest pivot of T^T T below 1e-13 \"\n"
+      "                  \"of the largest)\",\n"
+      "                  {}[j], ratio);\n"
+      "}}",
+      inverse ? "true" : "false", power, order);
+}
+
 std::string row_label(const topology::Tree& t, const Row& row) {
   const topology::Cut& cut = t.cuts[row.cut];
   return fmt::format("loop joint '{}' row {}", comment_text(cut.name), row.type_row + 1);
@@ -235,17 +273,7 @@ void table_driven_step3(const topology::Tree& t, const SchurPattern& sp, const S
 
   const char* flag = ldlt ? "true" : "false";
   std::string f;
-  f += "// Constraint rows whose T^T T pivot fails: the loop joint is named.\n"
-       "int constraints_singular(std::int32_t row, double pivot) {\n"
-       "  std::snprintf(g_error, sizeof g_error,\n"
-       "                \"constraint rows singular (T^T T not positive definite) at %s; pivot %.17g\",\n"
-       "                kRowLabel[row], pivot);\n"
-       "  return kConstraintsSingular;\n"
-       "}\n\n"
-       "int fail_row(int status, const char* what, std::int32_t row, double value) {\n"
-       "  std::snprintf(g_error, sizeof g_error, \"%s at %s, value %.17g\", what, kRowLabel[row], value);\n"
-       "  return status;\n"
-       "}\n\n";
+  f += row_failure_functions();
   f += fmt::format(
       "// Step 3 is table-driven: unrolled, it would hold {} products (more than {}),\n"
       "// too large to compile quickly; the runtime's loops do the same arithmetic.\n\n",
@@ -282,6 +310,7 @@ void table_driven_step3(const topology::Tree& t, const SchurPattern& sp, const S
       "void step34_solve(const double* W, const double* Winv, double* zm) {{\n"
       "  jr::constraint_solve_lambda(kConstraintSolve, W, Winv, {5}, zm);\n}}\n\n",
       ldlt ? "L_W D_W L_W^T" : "L_W L_W^T", o34.add, o34.mul, o34.div, o34.sqrt, flag);
+  f += check_digits_W(true, ldlt ? 1 : 2, "kOrder") + "\n\n";
   f += fmt::format(
       "// ---- Step 3.5: y_n = {0} lambda, subtracted from z_n in place. ----\n"
       "// Ops: {1} add, {2} mul, {3} div.\n"
@@ -436,6 +465,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool un
   if (!unrolled) {
     set_workspace(packed_W);
     table_driven_step3(t, sp, tab, ldlt, name_space, out);
+    out.W_diag.assign(tab.W_col_start.begin(), tab.W_col_start.end() - 1);
     out.table_driven = true;
     out.reciprocal_steps = "3.1-3.5 (the runtime's table-driven loops)";
     return out;
@@ -676,9 +706,11 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool un
         k34f.ops.sqrt += 1;
         if (!divide) {
           u.lines.push_back(in + fmt::format("Winv[{}] = 1.0 / {};", j, diag));
-          ++u.statements;
           k34f.ops.div += 1;
+        } else {
+          u.lines.push_back(in + fmt::format("Winv[{}] = d;  // the pivot itself, for check_digits_W", j));
         }
+        ++u.statements;
         for (int r : sp.pattern[j]) {
           std::vector<Term> terms;
           for (int i : common_left(r)) terms.push_back({W_at(j, i), W_at(r, i)});
@@ -706,9 +738,11 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool un
         u.statements += 2;
         if (!divide) {
           u.lines.push_back(in + fmt::format("Winv[{}] = 1.0 / d;", j));
-          ++u.statements;
           k34f.ops.div += 1;
+        } else {
+          u.lines.push_back(in + fmt::format("Winv[{}] = d;  // the pivot itself, for check_digits_W", j));
         }
+        ++u.statements;
         if (unscaled)
           for (const auto& [i, name] : w) {
             u.lines.push_back(in + fmt::format("{} = {};", W_at(j, i), name));
@@ -769,17 +803,7 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool un
   // ---- functions ----
   const std::string U = ldlt ? "U" : "T";
   std::string s;
-  s += "// Constraint rows whose T^T T pivot fails: the loop joint is named.\n"
-       "int constraints_singular(std::int32_t row, double pivot) {\n"
-       "  std::snprintf(g_error, sizeof g_error,\n"
-       "                \"constraint rows singular (T^T T not positive definite) at %s; pivot %.17g\",\n"
-       "                kRowLabel[row], pivot);\n"
-       "  return kConstraintsSingular;\n"
-       "}\n\n"
-       "int fail_row(int status, const char* what, std::int32_t row, double value) {\n"
-       "  std::snprintf(g_error, sizeof g_error, \"%s at %s, value %.17g\", what, kRowLabel[row], value);\n"
-       "  return status;\n"
-       "}\n\n";
+  s += row_failure_functions();
   s += k31.functions(
       "step31_solve_T",
       ldlt ? "const double* L, const double* P, double* T" : "const double* L, const double* Dinv, const double* P, double* T",
@@ -854,6 +878,10 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool un
                                     k34s.ops.add, k34s.ops.mul, k34s.ops.div));
   }
   s += "\n\n";
+  // The dense kernels leave 1 / d (L D L^T) or 1 / l (L L^T) in Winv, as the
+  // straight-line factor does without --divide; with it, the pivots d.
+  s += check_digits_W(dense_schur || !divide, dense_schur || !divide ? (ldlt ? 1 : 2) : 1, "kSchurOrder");
+  s += "\n\n";
   s += k35.functions("step35_update", "const double* T, const double* zm, double* z", "T, zm, z", false,
                      fmt::format("---- Step 3.5: y_n = {} lambda, subtracted from z_n in place (Step 4 then ----\n"
                                  "solves with z_n - y_n). Only rows of dofs some cut reaches.\n"
@@ -866,12 +894,13 @@ LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool un
                      "#include <jrgen/constraint_solve.hpp>  // dense Steps 3.3-3.4\n"
                      "namespace {0} {{\nnamespace {{\n\n",
                      name_space) +
-                 out.tables +
-                 fmt::format("\n// Elimination position of Step 3.4 -> kept row (user order).\n"
-                             "constexpr std::int32_t kSchurOrder[{}] = {{ {} }};",
-                             m, join_ints(sp.order));
+                 out.tables;
     out.workspace += fmt::format("\nthread_local double g_zw[{}];    // forward solution, then lambda, elimination order (Step 3.4)", square_W ? ld : m);
   }
+  for (int j = 0; j < m; ++j) out.W_diag.push_back(square_W ? j * (ld + 1) : sp.position(j, j));
+  out.tables += fmt::format("\n// Elimination position of Step 3.4 -> kept row (user order).\n"
+                            "constexpr std::int32_t kSchurOrder[{}] = {{ {} }};",
+                            m, join_ints(sp.order));
   out.step3 = s;
   out.call_args["step31_args"] = ldlt ? "g_L, g_T, g_Tr" : "g_L, g_Dinv, g_T, g_Tr";
   out.call_args["step32_args"] = ldlt ? "g_Tr, g_" + pivots + ", g_z, g_gamma, g_V, g_zm" : "g_Tr, g_z, g_gamma, g_zm";

@@ -45,6 +45,8 @@ struct LoopCode {
   /// The parts of Step 3 that run the runtime's loops, which multiply by
   /// reciprocal pivots also under --divide (empty: none).
   std::string reciprocal_steps;
+  /// Where the diagonal entry of each elimination position sits in g_W.
+  std::vector<int> W_diag;
 };
 
 /// Step 3 as straight-line code, or, when that would hold more than

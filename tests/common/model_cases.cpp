@@ -6,6 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <fmt/format.h>
 #include <tinyxml.h>
 
 #include "common/random_cuts.hpp"
@@ -151,6 +152,50 @@ std::vector<ModelCase> loop_models() {
     TiXmlPrinter printer;
     doc.Accept(&printer);
     out.push_back({"loops_fourbar_conservative", printer.CStr(), ""});
+  }
+  // A parallelogram four-bar (issue 19, items 4 and 6): ground pivots
+  // A = (0,0,0), D = (1,0,0), crank AB, coupler BC and rocker CD all 1 m
+  // (uniform 1 kg rods), drawn at q = 0 as a square (B = (0,1,0),
+  // C = (1,1,0)); closed at D by a 3-D revolute cut, reduced to 2 rows.  At
+  // q = (pi/2, -pi/2, pi/2) it is assembled with all bars on the x axis: the
+  // change point between the parallelogram and the anti-parallelogram
+  // branches, where Phiq loses rank (singular values 1.41 and 0).
+  {
+    auto rod = [](const char* name, const char* com, double ixx, double iyy) {
+      return fmt::format(
+          "  <link name=\"{}\"><inertial><origin xyz=\"{}\" rpy=\"0 0 0\"/><mass value=\"1\"/>"
+          "<inertia ixx=\"{}\" ixy=\"0\" ixz=\"0\" iyy=\"{}\" iyz=\"0\" izz=\"{}\"/></inertial></link>\n",
+          name, com, ixx, iyy, 1.0 / 12.0);
+    };
+    auto joint = [](const char* name, const char* parent, const char* child, const char* xyz) {
+      return fmt::format(
+          "  <joint name=\"{}\" type=\"revolute\"><parent link=\"{}\"/><child link=\"{}\"/>"
+          "<origin xyz=\"{}\" rpy=\"0 0 0\"/><axis xyz=\"0 0 1\"/>"
+          "<limit lower=\"-1000\" upper=\"1000\" effort=\"100\" velocity=\"50\"/></joint>\n",
+          name, parent, child, xyz);
+    };
+    std::string urdf = "<?xml version=\"1.0\"?>\n<robot name=\"parallelogram\">\n  <link name=\"world\"/>\n";
+    urdf += joint("joint_A", "world", "crank", "0 0 0") + rod("crank", "0 0.5 0", 1.0 / 12.0, 1e-3) +
+            joint("joint_B", "crank", "coupler", "0 1 0") + rod("coupler", "0.5 0 0", 1e-3, 1.0 / 12.0) +
+            joint("joint_C", "coupler", "rocker", "1 0 0") + rod("rocker", "0 -0.5 0", 1.0 / 12.0, 1e-3);
+    urdf +=
+        "  <loop_joint name=\"joint_D\" type=\"revolute\"><parent link=\"rocker\"/><child link=\"world\"/>"
+        "<origin xyz=\"0 -1 0\" rpy=\"0 0 0\"/><child_origin xyz=\"1 0 0\" rpy=\"0 0 0\"/>"
+        "<axis xyz=\"0 0 1\"/></loop_joint>\n</robot>\n";
+    out.push_back({"loops_parallelogram", urdf, ""});
+  }
+  // The four-bar with joint and loop-joint names of 300 characters (issue
+  // 19, item 2): the generated code must still compile with -Wall -Wextra
+  // -Werror (no -Wformat-truncation in its error messages).
+  {
+    std::string text = read_text((models / "fourbar.urdf").string());
+    for (const char* name : {"joint_A", "joint_B", "joint_C", "joint_D"}) {
+      const std::string quoted = std::string("\"") + name + "\"";
+      const std::string longer = std::string("\"") + name + std::string(293, 'x') + "\"";
+      for (std::size_t at = text.find(quoted); at != std::string::npos; at = text.find(quoted, at + longer.size()))
+        text.replace(at, quoted.size(), longer);
+    }
+    out.push_back({"loops_long_names", text, ""});
   }
   // The HMMWV without its left rear toe link: 15 constraint rows, all
   // reaching the chassis, so the dense Steps 3.3-3.4 run the square layout

@@ -172,4 +172,34 @@ TEST(Parallel, PivotFailureIsReported) {
   check_pivot_failure(JR_API(gen_par_tree3000), 17);
 }
 
+// Status 0 means the digits are there (issue 19): the row and column of
+// user dof k scaled by 1e-9, as for a link without inertia about its axis.
+// Its pivot shrinks by 1e-18 with its own diagonal entry, so the per-pivot
+// test passes; the spread of the finished factor (below 1e-13 of the
+// largest pivot) reports code 1 naming the joint.
+void check_spread_failure(const Api& api, int k) {
+  const State s = random_state(api, 8);
+  Eigen::MatrixXd M(api.nv, api.nv);
+  api.mass_matrix(s.q.data(), M.data());
+  Eigen::VectorXd Q = Eigen::VectorXd::Ones(api.nv), x(api.nv);
+  ASSERT_EQ(api.solve_augmented(M.data(), Q.data(), nullptr, nullptr, x.data(), nullptr), 0) << api.last_error();
+  M.row(k) *= 1e-9;
+  M.col(k) *= 1e-9;
+  EXPECT_EQ(api.solve_augmented(M.data(), Q.data(), nullptr, nullptr, x.data(), nullptr), 1);
+  const std::string msg = api.last_error();
+  EXPECT_NE(msg.find("mass matrix singular to working precision"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("v[" + std::to_string(k) + "]"), std::string::npos) << msg;
+}
+
+TEST(DenseSupernode, SpreadFailureNamesTheJoint) {
+  check_spread_failure(JR_API(gen_dense_chain200), 150);
+  check_spread_failure(JR_API(gen_dense_branched), 3);
+}
+
+TEST(Parallel, SpreadFailureIsReported) {
+  check_spread_failure(JR_API(gen_par_tree1000), 500);
+  check_spread_failure(JR_API(gen_par_tree1000_ldlt), 500);
+  check_spread_failure(JR_API(gen_ser_tree1000_ldlt), 17);
+}
+
 }  // namespace

@@ -186,6 +186,8 @@ TEST_P(GeneratedLoops, SolveAugmentedMatchesDenseLU) {
 
 TEST_P(GeneratedLoops, SingularConstraintRowsAreReportedNamingTheLoop) {
   const GeneratedSolver& s = GetParam();
+  if (s.target.find("_proximal") != std::string::npos)
+    GTEST_SKIP() << "--singular proximal regularizes singular rows (tests/generated/singular_test.cpp)";
   std::mt19937_64 rng(8);
   Eigen::VectorXd q, v;
   assembled_state(rng, q, v);

@@ -15,6 +15,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
 #if defined(__SSE2__) && !defined(JRGEN_PORTABLE_SIMD)
@@ -301,6 +302,55 @@ inline bool any_non_finite(const double* x, std::int32_t n) {
     bad |= static_cast<std::uint64_t>((bits & kExponent) == kExponent);
   }
   return bad != 0;
+}
+
+/// The digits test on a finished factor (issue 19: status 0 means the
+/// digits are there).  The per-pivot test of the factorizations compares
+/// pivot j with its own diagonal entry, which cannot see a matrix whose
+/// smallness is in a whole row and column: a constraint row that vanishes at
+/// a singular configuration (T^T T's diagonal entry then vanishes with its
+/// pivot), or a dof of a link without inertia about its axis (icub's neck).
+/// This test compares the smallest pivot d_min of A = L D L^T with the
+/// largest, d_max.  Every pivot lies in [lambda_min(A), lambda_max(A)]
+/// (d_j = 1 / (A_jj^-1 of the leading j x j block): Cauchy interlacing), so
+///     d_max / d_min <= cond2(A):
+/// a spread beyond 1 / limit proves cond2(A) > 1 / limit.
+///
+/// x: the n > 0 pivots (inverse false) or their reciprocals (inverse true),
+/// all positive (the factor passed its per-pivot test); power 1 for the d_j
+/// of L D L^T, 2 for the l_j = sqrt(d_j) of L L^T.  Returns -1 when
+/// d_min >= limit * d_max, else the index of the smallest pivot, with
+/// d_min / d_max in *ratio.  Two min/max chains of n / 2 SSE2 steps, no
+/// division on the success path.
+inline std::int32_t pivot_spread(const double* x, std::int32_t n, bool inverse, int power, double limit,
+                                 double* ratio) {
+  double lo = x[0], hi = x[0];
+  std::int32_t i = 0;
+#if defined(__SSE2__) && !defined(JRGEN_PORTABLE_SIMD)
+  if (n >= 2) {
+    __m128d vlo = _mm_loadu_pd(x), vhi = vlo;
+    for (i = 2; i + 2 <= n; i += 2) {
+      const __m128d v = _mm_loadu_pd(x + i);
+      vlo = _mm_min_pd(vlo, v);
+      vhi = _mm_max_pd(vhi, v);
+    }
+    lo = std::min(_mm_cvtsd_f64(vlo), _mm_cvtsd_f64(_mm_unpackhi_pd(vlo, vlo)));
+    hi = std::max(_mm_cvtsd_f64(vhi), _mm_cvtsd_f64(_mm_unpackhi_pd(vhi, vhi)));
+  }
+#endif
+  for (; i < n; ++i) {
+    lo = std::min(lo, x[i]);
+    hi = std::max(hi, x[i]);
+  }
+  // d_min / d_max = (lo / hi)^power, with or without reciprocals.
+  const bool spread = power == 2 ? lo * lo < limit * (hi * hi) : lo < limit * hi;
+  if (!spread) return -1;
+  const double r = lo / hi;
+  *ratio = power == 2 ? r * r : r;
+  const double smallest = inverse ? hi : lo;
+  for (i = 0; i < n; ++i)
+    if (x[i] == smallest) break;
+  return i;
 }
 
 /// Result codes of the generated solvers (INTERFACE.md section 4).

@@ -97,23 +97,89 @@ constexpr jr::Model kModel = { 7, 7, 7, kBodies, kDofParent, kDofUser, kMColStar
 // A pivot below this fraction of M's diagonal entry means M is singular to
 // working precision (all digits lost): reported, never divided through.
 constexpr double kPivotTolerance = 1e-14;
+// The digits test on each finished factor, of M (Step 1) and of T^T T
+// (Step 3.4): the smallest pivot against the largest (jr::pivot_spread).  A
+// spread d_min / d_max below 1e-13 proves cond2 > 1e13, where a Cholesky
+// solve's normwise error bound c(n) eps cond2 (Higham, Accuracy and
+// Stability, Thm. 10.4) exceeds 2e-3 c(n), a few percent for the n of a
+// mechanism: at most about 2 digits are guaranteed (icub at its zero state,
+// spread 8e-15, is 0.45 % off).  A constraint row that vanishes gives 1e-32;
+// on every test model the spread of M stays above 1.8e-9 (a mass ratio of
+// 1e8), 1e4 times the limit (tests/generated/status_test.cpp prints it).
+constexpr double kSpreadLimit = 1e-13;
 
 // ---- Workspace (per thread, allocated once) ----------------------------------
 thread_local jr::BodyState g_bodies[7];
 thread_local double g_L[28];  // packed M, factored in place
 thread_local double g_Dinv[7];  // inverse pivots
 thread_local double g_z[7];     // right-hand side and solution, Lemma 2 order
-thread_local char g_error[256];
+// Messages print names with at most 160 characters ("%.160s"): with the
+// fixed text and the numbers they always fit, whatever the URDF's names.
+thread_local char g_error[512];
 
 int fail(int status, const char* what, std::int32_t dof_user, double value) {
-  std::snprintf(g_error, sizeof g_error, "%s at joint '%s' (v[%d]), value %.17g", what,
+  std::snprintf(g_error, sizeof g_error, "%.100s at joint '%.160s' (v[%d]), value %.17g", what,
                 joint_names[kDofJoint[dof_user]], static_cast<int>(dof_user), value);
   return status;
+}
+
+// The joint (user order) holding entry i of q or v: `first` is joint_q_index
+// or joint_v_index (ascending).
+std::int32_t joint_of(const int* first, std::int32_t i) {
+  std::int32_t joint = njoints - 1;
+  while (joint > 0 && first[joint] > i) --joint;
+  return joint;
+}
+
+// Status 3 naming entry i of the input `what` (q, v or tau) and its joint.
+int non_finite(const char* what, const int* first, std::int32_t i, double value) {
+  std::snprintf(g_error, sizeof g_error, "non-finite input %.8s[%d] (joint '%.160s'), value %.17g", what,
+                static_cast<int>(i), joint_names[joint_of(first, i)], value);
+  return kNonFinite;
+}
+
+// Status 3 for the first NaN or infinity in q, v or tau (user order), or 0.
+// Run before the solve on q only (see forward_dynamics), on v and tau only
+// after a failed solve: no cost on the path of a success.
+int non_finite_input(const double* q, const double* v, const double* tau) {
+  for (std::int32_t i = 0; i < nq; ++i)
+    if (!std::isfinite(q[i])) return non_finite("q", joint_q_index, i, q[i]);
+  for (std::int32_t i = 0; i < nv; ++i)
+    if (!std::isfinite(v[i])) return non_finite("v", joint_v_index, i, v[i]);
+  for (std::int32_t i = 0; i < nv; ++i)
+    if (!std::isfinite(tau[i])) return non_finite("tau", joint_v_index, i, tau[i]);
+  return kSuccess;
+}
+
+// Status 3 for the first NaN or infinity in the dense n x nv column-major
+// matrix A (M or Phiq) of solve_augmented, or 0.
+int non_finite_matrix(const char* what, const double* A, std::int32_t n) {
+  for (std::int32_t c = 0; c < nv; ++c)
+    for (std::int32_t r = 0; r < n; ++r) {
+      const double value = A[r + static_cast<std::int64_t>(n) * c];
+      if (std::isfinite(value)) continue;
+      std::snprintf(g_error, sizeof g_error, "non-finite input %.8s(%d, %d) (column of joint '%.160s'), value %.17g",
+                    what, static_cast<int>(r), static_cast<int>(c), joint_names[joint_of(joint_v_index, c)], value);
+      return kNonFinite;
+    }
+  return kSuccess;
 }
 
 int not_positive_definite(std::int32_t dof_lem, double pivot) {
   return fail(kMassNotPositiveDefinite, "mass matrix not positive definite", kDofUser[dof_lem],
               pivot);
+}
+
+// After Step 1: M singular to working precision although every pivot passed
+// its own test (kSpreadLimit); names the joint of the smallest pivot and
+// gives d_min / d_max.
+int check_digits_M(const double* Dinv) {
+  double ratio = 0.0;
+  const std::int32_t j = jr::pivot_spread(Dinv, nv, true, 1, kSpreadLimit, &ratio);
+  if (j < 0) return kSuccess;
+  return fail(kMassNotPositiveDefinite,
+              "mass matrix singular to working precision (smallest pivot below 1e-13 of the largest)",
+              kDofUser[j], ratio);
 }
 
 // Q (user order) -> z (Lemma 2 order).
@@ -366,6 +432,7 @@ int solve_tree(const double* M, double* qdd) {
   // Step 1 reads M from the packed g_L, or (solve_augmented) from the dense M.
   if (const int status = M != nullptr ? step1_factor_dense(M, g_L, g_Dinv) : step1_factor(g_L, g_Dinv))
     return status;
+  if (const int status = check_digits_M(g_Dinv)) return status;
   step2_forward(g_L, g_z);
   step4_backward(g_L, g_Dinv, g_z);
   scatter_qdd(g_z, qdd);
@@ -383,13 +450,23 @@ int solve_tree(const double* M, double* qdd) {
 int forward_dynamics(const double* q, const double* v, const double* tau, double* qdd,
                      double* lambda) {
   (void)lambda;  // nc == 0: a tree has no constraint forces
+  // A NaN or infinity in q goes through sines, cosines and the quaternions'
+  // normalization into every term of eq. (17), or into none (a floating
+  // base's position enters neither M nor h): q is tested first (an integer
+  // test per pair of entries).  v and tau enter h and Q linearly, so a
+  // non-finite entry always reaches qdd (status 3 below); they are scanned,
+  // to name the coordinate, only after a failed solve.
+  if (jr::any_non_finite(q, nq)) return non_finite_input(q, v, tau);
   jr::kinematics(kModel, g_bodies, q);
   // M, eq. (18), by the composite-rigid-body recursion, eq. (14).
   jr::mass_matrix_packed(kModel, g_bodies, g_L);
   // Q = tau - h (Coriolis and centrifugal terms, gravity, joint damping).
   jr::bias_forces<true, true>(kModel, g_bodies, v, g_z);
   for (std::int32_t j = 0; j < nv; ++j) g_z[j] = tau[kDofUser[j]] - g_z[j];
-  return solve_tree(nullptr, qdd);
+  const int status = solve_tree(nullptr, qdd);
+  if (status == kSuccess) return status;
+  const int input = non_finite_input(q, v, tau);
+  return input != kSuccess ? input : status;
 }
 
 int solve_augmented(const double* M, const double* Q, const double* Phiq, const double* gamma,
@@ -398,7 +475,15 @@ int solve_augmented(const double* M, const double* Q, const double* Phiq, const 
   (void)gamma;
   (void)lambda;
   gather_Q(Q, g_z);
-  return solve_tree(M, qdd);
+  const int status = solve_tree(M, qdd);
+  if (status == kSuccess) return status;
+  // Every entry read enters the result linearly (or a pivot): a NaN or
+  // infinity among them fails the solve, and is named here, off the path of
+  // a success.
+  if (const int input = non_finite_matrix("M", M, nv)) return input;
+  for (std::int32_t i = 0; i < nv; ++i)
+    if (!std::isfinite(Q[i])) return non_finite("Q", joint_v_index, i, Q[i]);
+  return status;
 }
 
 #ifdef JRGEN_EXPOSE_STEPS
@@ -449,5 +534,4 @@ void bias_forces(const double* q, const double* v, double* h) {
 }
 
 const char* last_error() { return g_error; }
-
 }  // namespace arm7

@@ -82,10 +82,22 @@ const char* const kRowLabel[2] = {
 "loop joint 'joint_D' row 1 of 5 (revolute)",
 "loop joint 'joint_D' row 2 of 5 (revolute)",
 };
+// Elimination position of Step 3.4 -> kept row (user order).
+constexpr std::int32_t kSchurOrder[2] = { 0, 1 };
 
 // A pivot below this fraction of M's diagonal entry means M is singular to
 // working precision (all digits lost): reported, never divided through.
 constexpr double kPivotTolerance = 1e-14;
+// The digits test on each finished factor, of M (Step 1) and of T^T T
+// (Step 3.4): the smallest pivot against the largest (jr::pivot_spread).  A
+// spread d_min / d_max below 1e-13 proves cond2 > 1e13, where a Cholesky
+// solve's normwise error bound c(n) eps cond2 (Higham, Accuracy and
+// Stability, Thm. 10.4) exceeds 2e-3 c(n), a few percent for the n of a
+// mechanism: at most about 2 digits are guaranteed (icub at its zero state,
+// spread 8e-15, is 0.45 % off).  A constraint row that vanishes gives 1e-32;
+// on every test model the spread of M stays above 1.8e-9 (a mass ratio of
+// 1e8), 1e4 times the limit (tests/generated/status_test.cpp prints it).
+constexpr double kSpreadLimit = 1e-13;
 
 // ---- Workspace (per thread, allocated once) ----------------------------------
 thread_local jr::BodyState g_bodies[3];
@@ -100,17 +112,73 @@ thread_local double g_gamma[2];
 thread_local double g_W[3];     // T^T T packed (fill included), factored in place
 thread_local double g_Winv[2];  // inverse pivots of T^T T
 thread_local double g_zm[2];    // z_m (Step 3.2), then lambda (Step 3.4)
-thread_local char g_error[256];
+// Messages print names with at most 160 characters ("%.160s"): with the
+// fixed text and the numbers they always fit, whatever the URDF's names.
+thread_local char g_error[512];
 
 int fail(int status, const char* what, std::int32_t dof_user, double value) {
-  std::snprintf(g_error, sizeof g_error, "%s at joint '%s' (v[%d]), value %.17g", what,
+  std::snprintf(g_error, sizeof g_error, "%.100s at joint '%.160s' (v[%d]), value %.17g", what,
                 joint_names[kDofJoint[dof_user]], static_cast<int>(dof_user), value);
   return status;
+}
+
+// The joint (user order) holding entry i of q or v: `first` is joint_q_index
+// or joint_v_index (ascending).
+std::int32_t joint_of(const int* first, std::int32_t i) {
+  std::int32_t joint = njoints - 1;
+  while (joint > 0 && first[joint] > i) --joint;
+  return joint;
+}
+
+// Status 3 naming entry i of the input `what` (q, v or tau) and its joint.
+int non_finite(const char* what, const int* first, std::int32_t i, double value) {
+  std::snprintf(g_error, sizeof g_error, "non-finite input %.8s[%d] (joint '%.160s'), value %.17g", what,
+                static_cast<int>(i), joint_names[joint_of(first, i)], value);
+  return kNonFinite;
+}
+
+// Status 3 for the first NaN or infinity in q, v or tau (user order), or 0.
+// Run before the solve on q only (see forward_dynamics), on v and tau only
+// after a failed solve: no cost on the path of a success.
+int non_finite_input(const double* q, const double* v, const double* tau) {
+  for (std::int32_t i = 0; i < nq; ++i)
+    if (!std::isfinite(q[i])) return non_finite("q", joint_q_index, i, q[i]);
+  for (std::int32_t i = 0; i < nv; ++i)
+    if (!std::isfinite(v[i])) return non_finite("v", joint_v_index, i, v[i]);
+  for (std::int32_t i = 0; i < nv; ++i)
+    if (!std::isfinite(tau[i])) return non_finite("tau", joint_v_index, i, tau[i]);
+  return kSuccess;
+}
+
+// Status 3 for the first NaN or infinity in the dense n x nv column-major
+// matrix A (M or Phiq) of solve_augmented, or 0.
+int non_finite_matrix(const char* what, const double* A, std::int32_t n) {
+  for (std::int32_t c = 0; c < nv; ++c)
+    for (std::int32_t r = 0; r < n; ++r) {
+      const double value = A[r + static_cast<std::int64_t>(n) * c];
+      if (std::isfinite(value)) continue;
+      std::snprintf(g_error, sizeof g_error, "non-finite input %.8s(%d, %d) (column of joint '%.160s'), value %.17g",
+                    what, static_cast<int>(r), static_cast<int>(c), joint_names[joint_of(joint_v_index, c)], value);
+      return kNonFinite;
+    }
+  return kSuccess;
 }
 
 int not_positive_definite(std::int32_t dof_lem, double pivot) {
   return fail(kMassNotPositiveDefinite, "mass matrix not positive definite", kDofUser[dof_lem],
               pivot);
+}
+
+// After Step 1: M singular to working precision although every pivot passed
+// its own test (kSpreadLimit); names the joint of the smallest pivot and
+// gives d_min / d_max.
+int check_digits_M(const double* Dinv) {
+  double ratio = 0.0;
+  const std::int32_t j = jr::pivot_spread(Dinv, nv, false, 1, kSpreadLimit, &ratio);
+  if (j < 0) return kSuccess;
+  return fail(kMassNotPositiveDefinite,
+              "mass matrix singular to working precision (smallest pivot below 1e-13 of the largest)",
+              kDofUser[j], ratio);
 }
 
 // Q (user order) -> z (Lemma 2 order).
@@ -143,12 +211,12 @@ void gather_Phiq(const double* __restrict Phiq, double* __restrict T) {
 // and writes only rows of its ancestors. Entries are divided by their pivot L[j,j] (--divide).
 // Ops: 4 add, 4 mul, 3 div, 0 sqrt.
 int step1_factor(double* __restrict L, double* __restrict Dinv) {
-  (void)Dinv;
   // column 0: joint 'joint_C'; 0 descendant(s), 2 ancestor row(s)
   {
     const double d = L[0];
     if (!(d > kPivotTolerance * L[0])) return not_positive_definite(0, d);
     L[0] = d;
+    Dinv[0] = d;  // the pivot itself, for check_digits_M
   }
   // column 1: joint 'joint_B'; 1 descendant(s), 1 ancestor row(s)
   {
@@ -156,6 +224,7 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     const double d = L[3] - L[1] * l0;
     if (!(d > kPivotTolerance * L[3])) return not_positive_definite(1, d);
     L[3] = d;
+    Dinv[1] = d;  // the pivot itself, for check_digits_M
     L[1] = l0;
     L[4] = L[4] - l0 * L[2];
   }
@@ -166,6 +235,7 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
     const double d = L[5] - (L[2] * l0 + L[4] * l1);
     if (!(d > kPivotTolerance * L[5])) return not_positive_definite(2, d);
     L[5] = d;
+    Dinv[2] = d;  // the pivot itself, for check_digits_M
     L[2] = l0;
     L[4] = l1;
   }
@@ -177,12 +247,12 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
 // L: only the structurally non-zero entries of eq. (18) are read, and no
 // separate copy of M into L is made.
 int step1_factor_dense(const double* __restrict M, double* __restrict L, double* __restrict Dinv) {
-  (void)Dinv;
   // column 0: joint 'joint_C'; 0 descendant(s), 2 ancestor row(s)
   {
     const double d = M[8];
     if (!(d > kPivotTolerance * M[8])) return not_positive_definite(0, d);
     L[0] = d;
+    Dinv[0] = d;  // the pivot itself, for check_digits_M
     jr::store2(L + 1, jr::set2(M[7], M[6]));
   }
   // column 1: joint 'joint_B'; 1 descendant(s), 1 ancestor row(s)
@@ -191,6 +261,7 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     const double d = M[4] - L[1] * l0;
     if (!(d > kPivotTolerance * M[4])) return not_positive_definite(1, d);
     L[3] = d;
+    Dinv[1] = d;  // the pivot itself, for check_digits_M
     L[1] = l0;
     L[4] = M[3] - l0 * L[2];
   }
@@ -201,6 +272,7 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
     const double d = M[0] - (L[2] * l0 + L[4] * l1);
     if (!(d > kPivotTolerance * M[0])) return not_positive_definite(2, d);
     L[5] = d;
+    Dinv[2] = d;  // the pivot itself, for check_digits_M
     L[2] = l0;
     L[4] = l1;
   }
@@ -220,13 +292,13 @@ void step2_forward(const double* __restrict L, double* __restrict z) {
 // Constraint rows whose T^T T pivot fails: the loop joint is named.
 int constraints_singular(std::int32_t row, double pivot) {
   std::snprintf(g_error, sizeof g_error,
-                "constraint rows singular (T^T T not positive definite) at %s; pivot %.17g",
+                "constraint rows singular (T^T T not positive definite) at %.220s; pivot %.17g",
                 kRowLabel[row], pivot);
   return kConstraintsSingular;
 }
 
 int fail_row(int status, const char* what, std::int32_t row, double value) {
-  std::snprintf(g_error, sizeof g_error, "%s at %s, value %.17g", what, kRowLabel[row], value);
+  std::snprintf(g_error, sizeof g_error, "%.100s at %.220s, value %.17g", what, kRowLabel[row], value);
   return status;
 }
 
@@ -279,12 +351,12 @@ void step33_TtT(const double* __restrict T, const double* __restrict V, double* 
 // ---- Step 3.4 (a): factor W = L_W D_W L_W^T in place, unrolled, fill included. ----
 // Ops: 1 add, 1 mul, 1 div, 0 sqrt.
 int step34_factor(double* __restrict W, double* __restrict Winv) {
-  (void)Winv;
   // column 0: loop joint 'joint_D' row 1
   {
     const double d = W[0];
     if (!(d > kPivotTolerance * W[0])) return constraints_singular(0, d);
     W[0] = d;
+    Winv[0] = d;  // the pivot itself, for check_digits_W
   }
   // column 1: loop joint 'joint_D' row 2
   {
@@ -292,6 +364,7 @@ int step34_factor(double* __restrict W, double* __restrict Winv) {
     const double d = W[2] - W[1] * l0;
     if (!(d > kPivotTolerance * W[2])) return constraints_singular(1, d);
     W[2] = d;
+    Winv[1] = d;  // the pivot itself, for check_digits_W
     W[1] = l0;
   }
   return 0;
@@ -307,6 +380,19 @@ void step34_solve(const double* __restrict W, const double* __restrict Winv, dou
   zm[1] = zm[1] / W[2];
   // backward, row 0
   zm[0] = zm[0] / W[0] - W[1] * zm[1];
+}
+
+// After Step 3.4 (a): T^T T singular to working precision although every pivot
+// passed its own test (kSpreadLimit); names the loop joint and row of the
+// smallest pivot and gives d_min / d_max.
+int check_digits_W(const double* Winv) {
+  double ratio = 0.0;
+  const std::int32_t j = jr::pivot_spread(Winv, nc, false, 1, kSpreadLimit, &ratio);
+  if (j < 0) return kSuccess;
+  return fail_row(kConstraintsSingular,
+                  "constraint rows singular to working precision (smallest pivot of T^T T below 1e-13 "
+                  "of the largest)",
+                  kSchurOrder[j], ratio);
 }
 
 // ---- Step 3.5: y_n = U lambda, subtracted from z_n in place (Step 4 then ----
@@ -337,7 +423,6 @@ void step4_backward(const double* __restrict L, const double* __restrict Dinv, d
 }  // namespace
 
 namespace {
-
 // The algorithm of Section 4.3 on the packed M in g_L, Q in g_z, the packed
 // Phiq in g_T and gamma in g_gamma; qdd in user order, lambda (may be nullptr).
 int solve_closed(const double* M, double* qdd, double* lambda) {
@@ -345,11 +430,13 @@ int solve_closed(const double* M, double* qdd, double* lambda) {
   // Step 1 reads M from the packed g_L, or (solve_augmented) from the dense M.
   if (const int status = M != nullptr ? step1_factor_dense(M, g_L, g_Dinv) : step1_factor(g_L, g_Dinv))
     return status;
+  if (const int status = check_digits_M(g_Dinv)) return status;
   step2_forward(g_L, g_z);
   step31_solve_T(g_L, g_T, g_Tr);
   step32_rhs(g_Tr, g_L, g_z, g_gamma, g_V, g_zm);
   step33_TtT(g_Tr, g_V, g_W);
   if (const int status = step34_factor(g_W, g_Winv)) return status;
+  if (const int status = check_digits_W(g_Winv)) return status;
   step34_solve(g_W, g_Winv, g_zm);
   step35_update(g_Tr, g_zm, g_z);
   step4_backward(g_L, g_Dinv, g_z);
@@ -372,6 +459,13 @@ int solve_closed(const double* M, double* qdd, double* lambda) {
 
 int forward_dynamics(const double* q, const double* v, const double* tau, double* qdd,
                      double* lambda) {
+  // A NaN or infinity in q goes through sines, cosines and the quaternions'
+  // normalization into every term of eq. (17), or into none (a floating
+  // base's position enters neither M nor h): q is tested first (an integer
+  // test per pair of entries).  v and tau enter h, gamma and Q linearly, so a
+  // non-finite entry always reaches qdd or lambda (status 3 below); they are
+  // scanned, to name the coordinate, only after a failed solve.
+  if (jr::any_non_finite(q, nq)) return non_finite_input(q, v, tau);
   jr::kinematics(kModel, g_bodies, q);
   // M, eq. (18), by the composite-rigid-body recursion, eq. (14).
   jr::mass_matrix_packed(kModel, g_bodies, g_L);
@@ -380,7 +474,10 @@ int forward_dynamics(const double* q, const double* v, const double* tau, double
   for (std::int32_t j = 0; j < nv; ++j) g_z[j] = tau[kDofUser[j]] - g_z[j];
   // Phiq (packed, Lemma 3 pattern) and gamma = -(Phiq v)_q v.
   jr::constraint_terms(kModel, kConstraints, g_bodies, g_motion, q, v, nullptr, g_T, g_gamma);
-  return solve_closed(nullptr, qdd, lambda);
+  const int status = solve_closed(nullptr, qdd, lambda);
+  if (status == kSuccess) return status;
+  const int input = non_finite_input(q, v, tau);
+  return input != kSuccess ? input : status;
 }
 
 int solve_augmented(const double* M, const double* Q, const double* Phiq, const double* gamma,
@@ -388,7 +485,18 @@ int solve_augmented(const double* M, const double* Q, const double* Phiq, const 
   gather_Q(Q, g_z);
   gather_Phiq(Phiq, g_T);
   for (std::int32_t r = 0; r < nc; ++r) g_gamma[r] = gamma[r];
-  return solve_closed(M, qdd, lambda);
+  const int status = solve_closed(M, qdd, lambda);
+  if (status == kSuccess) return status;
+  // Every entry read enters the result linearly (or a pivot): a NaN or
+  // infinity among them fails the solve, and is named here, off the path of
+  // a success.
+  if (const int input = non_finite_matrix("M", M, nv)) return input;
+  for (std::int32_t i = 0; i < nv; ++i)
+    if (!std::isfinite(Q[i])) return non_finite("Q", joint_v_index, i, Q[i]);
+  if (const int input = non_finite_matrix("Phiq", Phiq, nc)) return input;
+  for (std::int32_t r = 0; r < nc; ++r)
+    if (!std::isfinite(gamma[r])) return fail_row(kNonFinite, "non-finite input gamma", r, gamma[r]);
+  return status;
 }
 
 #ifdef JRGEN_EXPOSE_STEPS
@@ -449,5 +557,4 @@ void bias_forces(const double* q, const double* v, double* h) {
 }
 
 const char* last_error() { return g_error; }
-
 }  // namespace fourbar

@@ -20,9 +20,11 @@ extern const int joint_v_index[];        // (njoints) first entry of each joint 
 
 // Result codes (the runtime's jr::Status):
 inline constexpr int kSuccess = 0;
-inline constexpr int kMassNotPositiveDefinite = 1;  // a pivot of M's factor was <= 0 or NaN
-inline constexpr int kConstraintsSingular = 2;      // T^T T singular: dependent constraint rows
-inline constexpr int kNonFinite = 3;                // NaN or infinity in the result
+// Status 0 means the digits are there: a factor whose smallest pivot is
+// below 1e-13 of its largest (condition number above 1e13) is reported too.
+inline constexpr int kMassNotPositiveDefinite = 1;  // M not positive definite, or singular to working precision
+inline constexpr int kConstraintsSingular = 2;      // T^T T singular or nearly so: dependent constraint rows
+inline constexpr int kNonFinite = 3;                // NaN or infinity in q, v, tau (M, Q, Phiq, gamma) or the result
 
 // qdd (nv) and lambda (nc; may be nullptr) at state (q, v) under joint
 // forces tau (nv).  Returns kSuccess or one of the codes above; last_error()
