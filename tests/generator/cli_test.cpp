@@ -1148,7 +1148,10 @@ TEST_P(CliReport, CountsMatchTheEmittedCode) {
     EXPECT_EQ(g.table.at("D", "1"), std::stoll(m[1]) - nv);
     EXPECT_EQ(g.table.at("D", "2"), c.method == "llt" ? nv : 0);
     EXPECT_EQ(g.table.at("D", "4"), nv);
-    EXPECT_FALSE(contains(g.cpp, "Dinv[0] =")) << "--divide: no reciprocal pivots of M";
+    // (Dinv[j] then holds the pivot itself, for the digits test check_digits_M.)
+    EXPECT_FALSE(contains(g.cpp, "Dinv[0] = 1.0 / d") || contains(g.cpp, "Dinv[0] = l * (1.0 / d)"))
+        << "--divide: no reciprocal pivots of M";
+    EXPECT_TRUE(contains(g.cpp, "Dinv[0] = d;")) << "--divide: the pivots for check_digits_M";
   } else {
     EXPECT_EQ(g.table.at("D", "1"), nv);
     for (const char* step : {"2", "4"})
