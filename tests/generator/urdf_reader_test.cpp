@@ -663,6 +663,14 @@ TEST(UrdfReaderErrors, EveryCaseInTestsErrors) {
       expected.pop_back();
     ASSERT_FALSE(expected.empty());
 
+    // overflow_*: every number is finite, so the reader accepts them; the
+    // constants derived from them overflow in build_tree or the analysis
+    // (CliErrorFolder in cli_test checks that message).
+    if (name.rfind("overflow_", 0) == 0) {
+      EXPECT_NO_THROW(read_robot(file.string()));
+      ++cases;
+      continue;
+    }
     std::string message;
     testing::internal::CaptureStderr();
     if (is_urdf) {
