@@ -197,6 +197,28 @@ std::vector<ModelCase> loop_models() {
     }
     out.push_back({"loops_long_names", text, ""});
   }
+  // The four-bar with adversarial names (INTERFACE.md section 1: generated
+  // code compiles with -Wall -Wextra -Werror whatever the names): a 300
+  // character joint name, quotes and backslashes, printf directives, comment
+  // delimiters, trigraphs (-Wtrigraphs), a line break, a tab, markup and
+  // non-ASCII text.
+  {
+    std::string text = read_text((models / "fourbar.urdf").string());
+    const std::pair<std::string, std::string> renames[] = {
+        {"\"joint_A\"", "\"" + std::string(300, 'A') + "\""},
+        {"\"joint_B\"", "\"q&quot;uote\\back\\\\slash\\\""},
+        {"\"joint_C\"", "\"%s%n%99999d */ /* ?\?/ line&#10;break\""},
+        {"\"joint_D\"", "\"cut &quot;D&quot; \\ ?\?= \u00e9\u4e2d ?\?\?\""},
+        {"\"crank\"", "\"&lt;crank&gt; \u00fc\""},
+        {"\"coupler\"", "\"coupler&#9;tab\""},
+        {"\"fourbar\"", "\"four&quot;bar\\ */\""}};
+    for (const auto& [from, to] : renames) {
+      if (text.find(from) == std::string::npos) throw std::runtime_error("fourbar.urdf: no " + from);
+      for (std::size_t at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size()))
+        text.replace(at, from.size(), to);
+    }
+    out.push_back({"loops_weird_names", text, ""});
+  }
   // The HMMWV without its left rear toe link: 15 constraint rows, all
   // reaching the chassis, so the dense Steps 3.3-3.4 run the square layout
   // with m odd (its padding row; jrgen/constraint_solve.hpp).
