@@ -1,6 +1,7 @@
 // libFuzzer target: the URDF reader, the cuts reader, and the stages that run
-// on what they accept (topology::build_tree, analysis::analyze_constraints),
-// as generator/main.cpp runs them.  docs/testing.md tells how to run it.
+// on what they accept (topology::build_tree, analysis::analyze_constraints,
+// emit::emit_solver and emit::operation_report), as generator/main.cpp runs
+// them (default options).  docs/testing.md tells how to run it.
 //
 // An input is URDF text, optionally followed by kCutsSeparator and the text of
 // a --cuts file.  Every outcome but two is a bug the fuzzer reports:
@@ -22,6 +23,8 @@
 #include <string>
 
 #include "analysis/constraints.hpp"
+#include "emit/emitter.hpp"
+#include "emit/report.hpp"
 #include "fuzz_input.hpp"
 #include "ir/error.hpp"
 #include "topology/topology.hpp"
@@ -52,6 +55,13 @@ void run(const std::string& input) {
   if (robot.links.size() > kMaxLinks || robot.cuts.size() > kMaxCuts) return;
   jrgen::topology::Tree tree = jrgen::topology::build_tree(robot);
   jrgen::analysis::analyze_constraints(robot, tree, /*strict=*/false);
+  jrgen::emit::Options options;
+  options.name_space = jrgen::emit::sanitize_identifier(robot.name);
+  options.source_name = "fuzz.urdf";
+  options.cuts_name = in.has_cuts ? "fuzz.cuts.xml" : "";
+  options.header_name = "fuzz.hpp";
+  const jrgen::emit::Solver solver = jrgen::emit::emit_solver(robot, tree, options);
+  jrgen::emit::operation_report(robot, tree, solver);
 }
 
 }  // namespace
