@@ -9,14 +9,19 @@
 
 namespace jrgen {
 
+/// `text` with every control character written as an escape (\n, \r, \t,
+/// \xHH), so that a message quoting the user's text stays one line.
+std::string one_line(const std::string& text);
+
 /// Formats as "file:line: <element> 'name': what is wrong" (STYLE.md section 5);
-/// the line is left out when unknown, the element part when empty.
+/// the line is left out when unknown, the element part when empty.  Always one
+/// line: control characters in any part are escaped (one_line).
 class Error : public std::runtime_error {
  public:
   Error(const ir::SourceLocation& where, const std::string& element, const std::string& name,
         const std::string& what);
   /// An error without a model element (options, files).
-  explicit Error(const std::string& what) : std::runtime_error(what) {}
+  explicit Error(const std::string& what) : std::runtime_error(one_line(what)) {}
 };
 
 }  // namespace jrgen

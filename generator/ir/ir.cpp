@@ -32,9 +32,28 @@ std::string format_error(const ir::SourceLocation& where, const std::string& ele
 }
 }  // namespace
 
+std::string one_line(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  for (const char c : text) {
+    const auto u = static_cast<unsigned char>(c);
+    if (u >= 0x20 && u != 0x7f) out.push_back(c);
+    else if (c == '\n') out += "\\n";
+    else if (c == '\r') out += "\\r";
+    else if (c == '\t') out += "\\t";
+    else {
+      constexpr const char* kHex = "0123456789abcdef";
+      out += "\\x";
+      out.push_back(kHex[u >> 4]);
+      out.push_back(kHex[u & 0xf]);
+    }
+  }
+  return out;
+}
+
 Error::Error(const ir::SourceLocation& where, const std::string& element, const std::string& name,
              const std::string& what)
-    : std::runtime_error(format_error(where, element, name, what)) {}
+    : std::runtime_error(one_line(format_error(where, element, name, what))) {}
 
 namespace ir {
 

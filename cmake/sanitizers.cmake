@@ -1,0 +1,41 @@
+# Sanitizer and fuzzing builds (docs/testing.md).  Each is a build folder of
+# its own; the flags apply to everything compiled in it (runtime, generator,
+# generated solvers, tests).
+#
+#   JRGEN_SANITIZE=ON  AddressSanitizer + UndefinedBehaviorSanitizer (GCC or
+#                      Clang).  -fno-sanitize-recover=all makes every finding
+#                      abort the program, so a test or a generation that hits
+#                      one fails.  scripts/sanitize.sh builds and runs a subset.
+#   JRGEN_FUZZ=ON      Clang only: the libFuzzer target tests/fuzz and just the
+#                      libraries it needs, with coverage instrumentation and
+#                      ASan + UBSan.  scripts/fuzz.sh builds and runs it.
+if(JRGEN_SANITIZE AND JRGEN_FUZZ)
+  message(FATAL_ERROR "JRGEN_SANITIZE and JRGEN_FUZZ are separate builds: choose one (JRGEN_FUZZ includes ASan + UBSan)")
+endif()
+
+set(JRGEN_SANITIZER_FLAGS -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer)
+
+if(JRGEN_SANITIZE)
+  add_compile_options(${JRGEN_SANITIZER_FLAGS})
+  add_link_options(-fsanitize=address,undefined)
+endif()
+
+if(JRGEN_FUZZ)
+  if(NOT CMAKE_CXX_COMPILER_ID STREQUAL "Clang")
+    message(FATAL_ERROR "JRGEN_FUZZ=ON needs Clang with libFuzzer (-DCMAKE_CXX_COMPILER=clang++-14; "
+                        "Debian packages clang-14 libclang-rt-14-dev), not ${CMAKE_CXX_COMPILER_ID}")
+  endif()
+  include(CheckCXXSourceCompiles)
+  set(CMAKE_REQUIRED_LINK_OPTIONS -fsanitize=fuzzer)
+  check_cxx_source_compiles(
+    "#include <cstdint>\n#include <cstddef>\nextern \"C\" int LLVMFuzzerTestOneInput(const std::uint8_t*, std::size_t) { return 0; }"
+    JRGEN_HAS_LIBFUZZER)
+  unset(CMAKE_REQUIRED_LINK_OPTIONS)
+  if(NOT JRGEN_HAS_LIBFUZZER)
+    message(FATAL_ERROR "JRGEN_FUZZ=ON: ${CMAKE_CXX_COMPILER} cannot link -fsanitize=fuzzer (install libclang-rt-14-dev)")
+  endif()
+  # Coverage feedback for libFuzzer in every library; -fsanitize=fuzzer (its
+  # main) is linked into the fuzz program alone (tests/fuzz/CMakeLists.txt).
+  add_compile_options(-fsanitize=fuzzer-no-link ${JRGEN_SANITIZER_FLAGS} -g)
+  add_link_options(-fsanitize=address,undefined)
+endif()

@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Fuzzes jrgen's URDF and cuts readers (and build_tree, analyze_constraints on
+# what they accept) with libFuzzer for SECONDS seconds (default 60; CI runs 60).
+#
+#   scripts/fuzz.sh [SECONDS] [libFuzzer options...]
+#   e.g. scripts/fuzz.sh 3600 -fork=2      (an hour, two processes)
+#
+# Builds build-fuzz (clang, -DJRGEN_FUZZ=ON: only the fuzz target and the
+# libraries it needs, with ASan + UBSan; compiler: $JRGEN_FUZZ_CXX, default
+# clang++-14), then runs tests/fuzz/fuzz_urdf on a working corpus in
+# build-fuzz/fuzz-corpus (kept between runs; new inputs go there) and the
+# seeds written from models/ and tests/.  A crash, a hang (-timeout, 10 s per
+# input), a leak or an out-of-memory is written to build-fuzz/fuzz-artifacts/
+# and the script exits non-zero.  Reproduce with
+#   build-fuzz/tests/fuzz/fuzz_urdf build-fuzz/fuzz-artifacts/crash-...
+# then turn it into a regression test (docs/testing.md).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+seconds=${1:-60}
+shift || true
+[[ $seconds =~ ^[0-9]+$ ]] || { echo "fuzz.sh: SECONDS must be a whole number, got '$seconds'" >&2; exit 2; }
+build=build-fuzz
+cxx=${JRGEN_FUZZ_CXX:-clang++-14}
+
+cmake -S . -B "$build" -DJRGEN_FUZZ=ON -DCMAKE_CXX_COMPILER="$cxx" -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
+cmake --build "$build" -j2 --target fuzz_urdf
+mkdir -p "$build/fuzz-corpus" "$build/fuzz-artifacts"
+echo "fuzz.sh: fuzzing for ${seconds}s"
+"$build/tests/fuzz/fuzz_urdf" \
+  -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len=16384 \
+  -dict=tests/fuzz/urdf.dict -artifact_prefix="$build/fuzz-artifacts/" -print_final_stats=1 \
+  "$@" "$build/fuzz-corpus" "$build/tests/fuzz/corpus"
+echo "fuzz.sh: no crash, hang or leak in ${seconds}s"
