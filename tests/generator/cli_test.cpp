@@ -265,6 +265,15 @@ TEST(CliErrors, ReportOntoTheCutsFile) {
                         copy_inputs("hmmwv.urdf", true)});
 }
 
+TEST(CliErrors, ReportOntoTheAssemblyStart) {
+  expect_clean_failure({{"good.urdf", "-o", "@OUT@/solver.cpp", "--assemble-from", "q.txt", "--report", "q.txt"},
+                        {"--report q.txt", "the --assemble-from file"},
+                        [](const fs::path& out, const fs::path& cwd) {
+                          copy_inputs("good.urdf")(out, cwd);
+                          write_file(cwd / "q.txt", "0\n");
+                        }});
+}
+
 TEST(CliErrors, ReportOntoTheGeneratedCode) {
   expect_clean_failure({{kPendulum, "-o", "@OUT@/solver.cpp", "--report", "@OUT@/solver.cpp"},
                         {"--report @OUT@/solver.cpp", "also written by -o"},
