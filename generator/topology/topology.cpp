@@ -42,7 +42,9 @@ struct MassAccumulator {
     out.com = m > 0.0 ? Eigen::Vector3d(h / m) : Eigen::Vector3d::Zero();
     out.I_com = I_o - m * (out.com.squaredNorm() * Eigen::Matrix3d::Identity() -
                            out.com * out.com.transpose());
-    out.I_com = 0.5 * out.I_com + 0.5 * out.I_com.transpose();  // as 0.5 (A + A^T), without overflow
+    // As 0.5 (A + A^T), without overflow; eval(): the right side reads A^T
+    // while the left is written (Eigen's transpose aliasing).
+    out.I_com = (0.5 * out.I_com + 0.5 * out.I_com.transpose()).eval();
     return out;
   }
 };
@@ -82,7 +84,7 @@ std::string raise_to_bounds(ir::Inertial& in, const MassBounds& bounds) {
     moments = moments.cwiseMax(bounds.inertia);
     const Eigen::Matrix3d& V = eig.eigenvectors();
     in.I_com = V * moments.asDiagonal() * V.transpose();
-    in.I_com = 0.5 * (in.I_com + in.I_com.transpose());
+    in.I_com = (0.5 * (in.I_com + in.I_com.transpose())).eval();  // eval(): transpose aliasing
   }
   return what;
 }
