@@ -26,6 +26,8 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 #include "analysis/constraints.hpp"
 #include "common/model_cases.hpp"
 #include "ir/error.hpp"
@@ -307,10 +309,18 @@ TEST(AssemblyUnits, EveryModelAtThreeScales) {
 
 // ---- AssemblyStart (--assemble-from) -------------------------------------------
 
+// ctest runs the tests of this file in parallel processes: every file name
+// carries the test's name and the process id, so no two tests share a file.
+fs::path unique_path(const std::string& name) {
+  const auto* test = ::testing::UnitTest::GetInstance()->current_test_info();
+  return fs::path(::testing::TempDir()) /
+         ("assembly_test_" + std::string(test->name()) + "_" + std::to_string(::getpid()) + "_" + name);
+}
+
 struct TempFile {
   fs::path path;
   explicit TempFile(const std::string& text, const std::string& name = "q.txt")
-      : path(fs::path(::testing::TempDir()) / ("assembly_test_" + name)) {
+      : path(unique_path(name)) {
     std::ofstream(path) << text;
   }
   ~TempFile() { fs::remove(path); }
