@@ -41,7 +41,9 @@ struct Options {
 /// Floating-point operations of emitted code, counted as written.
 struct OpCount {
   long long add = 0, mul = 0, div = 0, sqrt = 0;
+  long long trig = 0;  ///< sines and cosines (straight-line kinematics)
   OpCount& operator+=(const OpCount& o) {
+    trig += o.trig;
     add += o.add;
     mul += o.mul;
     div += o.div;

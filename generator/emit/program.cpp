@@ -1,0 +1,337 @@
+#include "emit/program.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+
+#include "emit/format.hpp"
+
+namespace jrgen::emit {
+
+namespace {
+
+Program* program_of(Value a, Value b) { return a.program() != nullptr ? a.program() : b.program(); }
+
+std::uint64_t bits(double c) {
+  std::uint64_t u;
+  std::memcpy(&u, &c, sizeof u);
+  return u;
+}
+
+// The names of the parameters in "const double* q, double* L".
+std::vector<std::string> parameter_names(const std::string& params) {
+  std::vector<std::string> names;
+  std::size_t start = 0;
+  while (start < params.size()) {
+    std::size_t end = params.find(',', start);
+    if (end == std::string::npos) end = params.size();
+    std::string p = params.substr(start, end - start);
+    std::size_t last = p.find_last_not_of(' ');
+    std::size_t first = p.find_last_of(" *&", last);
+    if (last != std::string::npos) names.push_back(p.substr(first + 1, last - first));
+    start = end + 1;
+  }
+  return names;
+}
+
+bool uses_name(const std::string& body, const std::string& name) {
+  for (std::size_t at = body.find(name); at != std::string::npos; at = body.find(name, at + 1)) {
+    const auto ident = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; };
+    const bool before = at > 0 && ident(body[at - 1]);
+    const bool after = at + name.size() < body.size() && ident(body[at + name.size()]);
+    if (!before && !after) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+Value operator+(Value a, Value b) { return a.is_constant() && b.is_constant() ? Value(a.constant() + b.constant()) : program_of(a, b)->make(Program::Op::kAdd, a, b); }
+Value operator-(Value a, Value b) { return a.is_constant() && b.is_constant() ? Value(a.constant() - b.constant()) : program_of(a, b)->make(Program::Op::kSub, a, b); }
+Value operator*(Value a, Value b) { return a.is_constant() && b.is_constant() ? Value(a.constant() * b.constant()) : program_of(a, b)->make(Program::Op::kMul, a, b); }
+Value operator/(Value a, Value b) { return a.is_constant() && b.is_constant() ? Value(a.constant() / b.constant()) : program_of(a, b)->make(Program::Op::kDiv, a, b); }
+Value operator-(Value a) { return a.is_constant() ? Value(-a.constant()) : a.program()->make(Program::Op::kNeg, a); }
+Value sqrt(Value a) { return a.is_constant() ? Value(std::sqrt(a.constant())) : a.program()->make(Program::Op::kSqrt, a); }
+Value sin(Value a) { return a.is_constant() ? Value(std::sin(a.constant())) : a.program()->make(Program::Op::kSin, a); }
+Value cos(Value a) { return a.is_constant() ? Value(std::cos(a.constant())) : a.program()->make(Program::Op::kCos, a); }
+
+Program::Program(std::string params, std::string spill) : params_(std::move(params)), spill_(std::move(spill)) {
+  functions_.push_back({"", ""});
+  function_nodes_.push_back(0);
+  blocks_.push_back("");
+}
+
+Value Program::input(const std::string& expr) {
+  const std::string k = "in:" + expr;
+  if (auto it = index_.find(k); it != index_.end()) return Value(this, it->second);
+  nodes_.push_back({Op::kInput, Value(), Value(), expr, static_cast<int>(functions_.size()) - 1,
+                    static_cast<int>(blocks_.size()) - 1});
+  index_.emplace(k, static_cast<int>(nodes_.size()) - 1);
+  return Value(this, static_cast<int>(nodes_.size()) - 1);
+}
+
+void Program::begin_function(const std::string& name, const std::string& doc) {
+  functions_.push_back({name, doc});
+  function_nodes_.push_back(0);
+  base_name_ = name;
+  base_doc_ = doc;
+  parts_ = 1;
+}
+
+void Program::split_if_full() {
+  if (function_nodes_.back() < max_statements || functions_.size() == 1) return;
+  ++parts_;
+  functions_.push_back({fmt::format("{}_{}", base_name_, parts_), base_doc_ + " (continued)"});
+  function_nodes_.push_back(0);
+}
+
+void Program::begin_block(const std::string& name) { blocks_.push_back(name); }
+
+void Program::comment(const std::string& text) {
+  comments_.push_back({text, static_cast<int>(functions_.size()) - 1, static_cast<int>(nodes_.size())});
+}
+
+void Program::output(const std::string& target, Value value) {
+  split_if_full();
+  outputs_.push_back({target, value, false, static_cast<int>(functions_.size()) - 1, static_cast<int>(nodes_.size())});
+}
+
+void Program::accumulate(const std::string& target, Value value) {
+  if (value.is(0.0)) return;
+  split_if_full();
+  outputs_.push_back({target, value, true, static_cast<int>(functions_.size()) - 1, static_cast<int>(nodes_.size())});
+}
+
+std::string Program::key(Op op, Value a, Value b) const {
+  auto enc = [](Value v) {
+    return v.is_constant() ? fmt::format("c{:x}", bits(v.constant())) : fmt::format("n{}", v.node());
+  };
+  return fmt::format("{}:{}:{}", static_cast<int>(op), enc(a), enc(b));
+}
+
+Value Program::make(Op op, Value a, Value b) {
+  const auto neg_of = [&](Value v) -> const Value* {
+    return !v.is_constant() && nodes_[v.node()].op == Op::kNeg ? &nodes_[v.node()].a : nullptr;
+  };
+  switch (op) {
+    case Op::kAdd:
+      if (a.is(0.0)) return b;
+      if (b.is(0.0)) return a;
+      if (const Value* nb = neg_of(b)) return make(Op::kSub, a, *nb);
+      if (const Value* na = neg_of(a)) return make(Op::kSub, b, *na);
+      break;
+    case Op::kSub:
+      if (b.is(0.0)) return a;
+      if (a.is(0.0)) return make(Op::kNeg, b);
+      if (!a.is_constant() && a.node() == b.node()) return Value(0.0);
+      if (const Value* nb = neg_of(b)) return make(Op::kAdd, a, *nb);
+      break;
+    case Op::kMul:
+      if (a.is(0.0) || b.is(0.0)) return Value(0.0);
+      if (a.is(1.0)) return b;
+      if (b.is(1.0)) return a;
+      if (a.is(-1.0)) return make(Op::kNeg, b);
+      if (b.is(-1.0)) return make(Op::kNeg, a);
+      if (const Value* na = neg_of(a)) return make(Op::kNeg, make(Op::kMul, *na, b));
+      if (const Value* nb = neg_of(b)) return make(Op::kNeg, make(Op::kMul, a, *nb));
+      break;
+    case Op::kDiv:
+      if (b.is(1.0)) return a;
+      if (a.is(0.0)) return Value(0.0);
+      break;
+    case Op::kNeg:
+      if (a.is_constant()) return Value(-a.constant());
+      if (const Value* na = neg_of(a)) return *na;
+      break;
+    default: break;
+  }
+  // Commutative operations: the node operand first, lower node first, so
+  // a * b and b * a are one node.
+  if ((op == Op::kAdd || op == Op::kMul) &&
+      (a.is_constant() ? !b.is_constant() : (!b.is_constant() && b.node() < a.node())))
+    std::swap(a, b);
+  if (functions_.size() == 1) throw std::logic_error("Program: begin_function() before the first operation");
+  const std::string k = key(op, a, b);
+  if (auto it = index_.find(k); it != index_.end()) return Value(this, it->second);
+  split_if_full();
+  nodes_.push_back({op, a, b, "", static_cast<int>(functions_.size()) - 1, static_cast<int>(blocks_.size()) - 1});
+  ++function_nodes_.back();
+  index_.emplace(k, static_cast<int>(nodes_.size()) - 1);
+  return Value(this, static_cast<int>(nodes_.size()) - 1);
+}
+
+std::vector<bool> Program::live() const {
+  std::vector<bool> is_live(nodes_.size(), false);
+  for (const Output& o : outputs_)
+    if (!o.value.is_constant()) is_live[o.value.node()] = true;
+  for (std::size_t i = nodes_.size(); i-- > 0;) {
+    if (!is_live[i]) continue;
+    for (Value v : {nodes_[i].a, nodes_[i].b})
+      if (!v.is_constant()) is_live[v.node()] = true;
+  }
+  return is_live;
+}
+
+std::string Program::operand(Value v) const {
+  if (v.is_constant()) return v.constant() < 0.0 ? fmt::format("({})", num(v.constant())) : num(v.constant());
+  const Node& n = nodes_[v.node()];
+  return n.op == Op::kInput ? n.text : fmt::format("t{}", v.node());
+}
+
+std::string Program::expression(const Node& n) const {
+  switch (n.op) {
+    case Op::kAdd: return operand(n.a) + " + " + operand(n.b);
+    case Op::kSub: return operand(n.a) + " - " + operand(n.b);
+    case Op::kMul: return operand(n.a) + " * " + operand(n.b);
+    case Op::kDiv: return operand(n.a) + " / " + operand(n.b);
+    case Op::kNeg: return fmt::format("-{}", operand(n.a));
+    case Op::kSqrt: return "std::sqrt(" + operand(n.a) + ")";
+    case Op::kSin: return "std::sin(" + operand(n.a) + ")";
+    case Op::kCos: return "std::cos(" + operand(n.a) + ")";
+    case Op::kInput: return n.text;
+  }
+  return "";
+}
+
+namespace {
+
+void count_op(Program::Op op, OpCount& c) {
+  switch (op) {
+    case Program::Op::kAdd:
+    case Program::Op::kSub: ++c.add; break;
+    case Program::Op::kMul: ++c.mul; break;
+    case Program::Op::kDiv: ++c.div; break;
+    case Program::Op::kSqrt: ++c.sqrt; break;
+    case Program::Op::kSin:
+    case Program::Op::kCos: ++c.trig; break;
+    case Program::Op::kNeg:
+    case Program::Op::kInput: break;
+  }
+}
+
+}  // namespace
+
+std::vector<std::pair<std::string, OpCount>> Program::count() const {
+  const std::vector<bool> is_live = live();
+  std::vector<std::pair<std::string, OpCount>> per_block;
+  for (const std::string& b : blocks_) per_block.push_back({b, OpCount{}});
+  for (std::size_t i = 0; i < nodes_.size(); ++i)
+    if (is_live[i]) count_op(nodes_[i].op, per_block[nodes_[i].block].second);
+  per_block.erase(per_block.begin());  // the unnamed block before the first begin_block
+  return per_block;
+}
+
+Program::Emitted Program::emit(const std::string& prefix) const {
+  const std::vector<bool> is_live = live();
+  // Spill slots: live computed nodes read in a function other than their own.
+  std::vector<int> slot(nodes_.size(), -1);
+  std::vector<std::vector<int>> imports(functions_.size());
+  Emitted out;
+  auto use = [&](Value v, int function) {
+    if (v.is_constant() || nodes_[v.node()].op == Op::kInput) return;
+    const int n = v.node();
+    if (nodes_[n].function == function) return;
+    if (slot[n] < 0) slot[n] = out.spills++;
+    auto& imp = imports[function];
+    if (std::find(imp.begin(), imp.end(), n) == imp.end()) imp.push_back(n);
+  };
+  for (std::size_t i = 0; i < nodes_.size(); ++i)
+    if (is_live[i]) {
+      use(nodes_[i].a, nodes_[i].function);
+      use(nodes_[i].b, nodes_[i].function);
+    }
+  for (const Output& o : outputs_) use(o.value, o.function);
+
+  std::vector<std::string> bodies(functions_.size());
+  std::size_t ci = 0, oi = 0;
+  auto flush = [&](std::size_t upto) {  // comments and outputs placed before node `upto`
+    while (true) {
+      const bool c = ci < comments_.size() && comments_[ci].after_node <= static_cast<int>(upto);
+      const bool o = oi < outputs_.size() && outputs_[oi].after_node <= static_cast<int>(upto);
+      if (!c && !o) break;
+      if (c && (!o || comments_[ci].after_node <= outputs_[oi].after_node)) {
+        bodies[comments_[ci].function] += "  // " + comments_[ci].text + "\n";
+        ++ci;
+      } else {
+        const Output& x = outputs_[oi++];
+        bodies[x.function] += fmt::format("  {} {} {};\n", x.target, x.accumulate ? "+=" : "=", operand(x.value));
+        ++out.statements;
+      }
+    }
+  };
+  for (std::size_t i = 0; i < nodes_.size(); ++i) {
+    flush(i);
+    const Node& n = nodes_[i];
+    if (!is_live[i] || n.op == Op::kInput) continue;
+    std::string& body = bodies[n.function];
+    body += fmt::format("  const double t{} = {};\n", i, expression(n));
+    if (slot[i] >= 0) body += fmt::format("  {}[{}] = t{};\n", spill_, slot[i], i);
+    ++out.statements;
+    count_op(n.op, out.total);
+  }
+  flush(nodes_.size());
+
+  const std::vector<std::string> params = parameter_names(params_);
+  for (std::size_t f = 1; f < functions_.size(); ++f) {
+    std::string head;
+    for (int n : imports[f]) head += fmt::format("  const double t{} = {}[{}];\n", n, spill_, slot[n]);
+    std::string body = head + bodies[f];
+    // Strip comment-only bodies: a function with nothing to do is not emitted.
+    if (body.find(';') == std::string::npos) continue;
+    std::string voids;
+    for (const std::string& p : params)
+      if (!uses_name(body, p)) voids += fmt::format("  (void){};\n", p);
+    out.definitions += fmt::format("// {}\n{}void {}({}) {{\n{}{}}}\n\n", functions_[f].doc, prefix,
+                                   functions_[f].name, params_, voids, body);
+    out.calls.push_back(functions_[f].name);
+  }
+  out.block_ops = count();
+  return out;
+}
+
+// ---- 3-vectors and 3x3 matrices ------------------------------------------------
+
+Vec3 vec3(const Eigen::Vector3d& v) { return {v[0], v[1], v[2]}; }
+
+Mat3 mat3(const Eigen::Matrix3d& m) {
+  Mat3 r;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) r[3 * i + j] = m(i, j);
+  return r;
+}
+
+Mat3 identity3() { return mat3(Eigen::Matrix3d::Identity()); }
+
+Vec3 operator+(const Vec3& a, const Vec3& b) { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
+Vec3 operator-(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+Vec3 operator*(Value s, const Vec3& a) { return {s * a[0], s * a[1], s * a[2]}; }
+Value dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+Vec3 cross(const Vec3& a, const Vec3& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+
+Vec3 mul(const Mat3& R, const Vec3& x) {
+  return {R[0] * x[0] + R[1] * x[1] + R[2] * x[2], R[3] * x[0] + R[4] * x[1] + R[5] * x[2],
+          R[6] * x[0] + R[7] * x[1] + R[8] * x[2]};
+}
+
+Vec3 tmul(const Mat3& R, const Vec3& x) {
+  return {R[0] * x[0] + R[3] * x[1] + R[6] * x[2], R[1] * x[0] + R[4] * x[1] + R[7] * x[2],
+          R[2] * x[0] + R[5] * x[1] + R[8] * x[2]};
+}
+
+Mat3 mul(const Mat3& A, const Mat3& B) {
+  Mat3 C;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) C[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
+  return C;
+}
+
+Mat3 transpose(const Mat3& A) { return {A[0], A[3], A[6], A[1], A[4], A[7], A[2], A[5], A[8]}; }
+
+}  // namespace jrgen::emit
