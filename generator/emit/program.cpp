@@ -215,6 +215,26 @@ void count_op(Program::Op op, OpCount& c) {
 
 }  // namespace
 
+std::vector<double> Program::evaluate(const std::function<double(const std::string&)>& input) const {
+  std::vector<double> x(nodes_.size());
+  for (std::size_t i = 0; i < nodes_.size(); ++i) {
+    const Node& n = nodes_[i];
+    const double a = value(n.a, x), b = value(n.b, x);
+    switch (n.op) {
+      case Op::kInput: x[i] = input(n.text); break;
+      case Op::kAdd: x[i] = a + b; break;
+      case Op::kSub: x[i] = a - b; break;
+      case Op::kMul: x[i] = a * b; break;
+      case Op::kDiv: x[i] = a / b; break;
+      case Op::kNeg: x[i] = -a; break;
+      case Op::kSqrt: x[i] = std::sqrt(a); break;
+      case Op::kSin: x[i] = std::sin(a); break;
+      case Op::kCos: x[i] = std::cos(a); break;
+    }
+  }
+  return x;
+}
+
 std::vector<std::pair<std::string, OpCount>> Program::count() const {
   const std::vector<bool> is_live = live();
   std::vector<std::pair<std::string, OpCount>> per_block;

@@ -20,6 +20,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -102,6 +103,14 @@ class Program {
   /// The live nodes (those the outputs need), as functions.  `prefix` starts
   /// each function's text (e.g. an attribute).
   Emitted emit(const std::string& prefix = "") const;
+
+  /// Every node's value with the inputs given by `input(expr)`, in double
+  /// precision and the operation order of the emitted code: what the
+  /// generated code computes, for tests at generation time (value()).
+  std::vector<double> evaluate(const std::function<double(const std::string&)>& input) const;
+  static double value(Value v, const std::vector<double>& nodes) {
+    return v.is_constant() ? v.constant() : nodes[static_cast<std::size_t>(v.node())];
+  }
 
   /// Operation counts per block of the live nodes, without emitting.
   std::vector<std::pair<std::string, OpCount>> count() const;
