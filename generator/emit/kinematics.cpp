@@ -141,12 +141,13 @@ std::vector<BodyMotion6> body_velocities(Program& program, const topology::Tree&
     if (b.type == ir::JointType::Floating || b.type == ir::JointType::Planar)
       cJ = join({0.0, 0.0, 0.0}, -1.0 * cross(angular(vJ), linear(vJ)));
     if (b.parent_lem < 0) {
-      out[i] = {vJ, cJ};
+      out[i] = {vJ, cJ, cJ};
       continue;
     }
     const BodyMotion6& P = out[b.parent_lem];
     out[i].v = motion_to_child(frames[i], P.v) + vJ;
     out[i].a = motion_to_child(frames[i], P.a) + cJ + cross_motion(out[i].v, vJ);
+    out[i].c = cJ + cross_motion(out[i].v, vJ);
   }
   return out;
 }

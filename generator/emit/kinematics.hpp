@@ -33,11 +33,13 @@ struct BodyFrame {
 std::vector<BodyFrame> joint_frames(Program& program, const topology::Tree& tree, const std::string& q = "q");
 
 /// Per body at (q, v) with qdd = 0 and no gravity: the velocity v_C and the
-/// velocity-product acceleration c_C = a_C (C coordinates), by the forward
-/// sweep of recursive Newton-Euler (root end first).
+/// velocity-product acceleration a_C (C coordinates), by the forward sweep of
+/// recursive Newton-Euler (root end first), and the body's own term of it,
+/// c = c_J + v_C x v_J (a_C = X a_P + c; the articulated-body algorithm's c_i).
 struct BodyMotion6 {
   Motion6 v;
   Motion6 a;
+  Motion6 c;
 };
 std::vector<BodyMotion6> body_velocities(Program& program, const topology::Tree& tree,
                                          const std::vector<BodyFrame>& frames, const std::string& v = "v");
