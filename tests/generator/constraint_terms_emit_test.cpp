@@ -1,0 +1,208 @@
+// The specialized constraint block (emit/constraint_terms.cpp, issue 20)
+// against the runtime's generic jr::constraints and jr::constraint_terms on
+// every closed-loop model of the suite (rows kept by the generator's own
+// redundancy analysis), at assembled and at random states: the Program is
+// evaluated at generation time (Program::evaluate, the operations of the
+// emitted code in their order).  gamma is also checked against an
+// independent reference, a central difference of Phiq v along v.
+#include "emit/constraint_terms.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <iostream>
+#include <limits>
+#include <random>
+#include <string>
+
+#include "analysis/constraints.hpp"
+#include "analysis/runtime_model.hpp"
+#include "common/model_cases.hpp"
+#include "emit/kinematics.hpp"
+#include "topology/topology.hpp"
+
+namespace {
+
+using jrgen::emit::Program;
+using jrgen::testing::ModelCase;
+constexpr double kEps = std::numeric_limits<double>::epsilon();
+
+// A loop model with its kept rows, and the constraint block built for it.
+struct Block {
+  jrgen::topology::Tree tree;
+  jrgen::analysis::ConstraintAnalysis analysis;
+  std::unique_ptr<jrgen::analysis::RuntimeModel> rt;
+  Program program{"const double* q, const double* v"};
+  jrgen::emit::ConstraintValues values;
+
+  explicit Block(const ModelCase& c) {
+    const jrgen::ir::Robot robot = jrgen::testing::read_model_case(c);
+    tree = jrgen::topology::build_tree(robot);
+    analysis = jrgen::analysis::analyze_constraints(robot, tree, /*strict=*/false);
+    rt = std::make_unique<jrgen::analysis::RuntimeModel>(tree, Eigen::Vector3d::Zero());
+    program.begin_function("terms", "test");
+    program.begin_block("kinematics");
+    const auto frames = jrgen::emit::joint_frames(program, tree);
+    const auto motion = jrgen::emit::body_velocities(program, tree, frames);
+    program.begin_block("constraints");
+    values = jrgen::emit::constraint_terms(program, tree, frames, motion);
+    for (std::size_t i = 0; i < values.phi.size(); ++i) {
+      program.output("phi[" + std::to_string(i) + "]", values.phi[i]);
+      program.output("gamma[" + std::to_string(i) + "]", values.gamma[i]);
+    }
+    for (std::size_t i = 0; i < values.phiq_packed.size(); ++i)
+      program.output("Phiq[" + std::to_string(i) + "]", values.phiq_packed[i]);
+  }
+
+  std::vector<double> evaluate(const Eigen::VectorXd& q, const Eigen::VectorXd& v) const {
+    return program.evaluate([&](const std::string& in) {
+      const int i = std::stoi(in.substr(2, in.size() - 3));
+      return in[0] == 'q' ? q[i] : v[i];
+    });
+  }
+};
+
+// A random state: angles and positions in [-2, 2], quaternions random unit
+// ones scaled by 1 to 1.5 (the block normalizes them), velocities in [-3, 3].
+void random_state(const jrgen::topology::Tree& t, std::mt19937_64& rng, Eigen::VectorXd& q, Eigen::VectorXd& v) {
+  std::uniform_real_distribution<double> u(-2.0, 2.0);
+  q = Eigen::VectorXd::NullaryExpr(t.nq, [&] { return u(rng); });
+  v = 1.5 * Eigen::VectorXd::NullaryExpr(t.nv, [&] { return u(rng); });
+  for (const auto& b : t.bodies) {
+    const int first = b.type == jrgen::ir::JointType::Ball ? b.q_user
+                      : b.type == jrgen::ir::JointType::Floating ? b.q_user + 3 : -1;
+    if (first < 0) continue;
+    const Eigen::Vector4d quat = Eigen::Vector4d::NullaryExpr([&] { return u(rng); }).normalized();
+    q.segment<4>(first) = (1.25 + 0.125 * u(rng)) * quat;
+  }
+}
+
+double max_abs(const Eigen::VectorXd& x) { return x.size() ? x.cwiseAbs().maxCoeff() : 0.0; }
+
+class ConstraintTermsEmit : public ::testing::TestWithParam<ModelCase> {};
+
+// Both sides are the same few products and sums of unit vectors, lengths and
+// velocities, composed along the cut's path from different frames (the
+// runtime through the world, the block from the cut frame Fk): each result
+// is a sum of terms no larger than L (positions: the largest world position
+// of a body or frame, >= 1 m) for Phi and Phiq, and V^2 L for gamma (V the
+// largest body speed, angular or linear, >= 1), each term carrying a few ulps
+// per composed joint.  100 eps of that scale allows the paths of the suite
+// (up to ~10 joints per loop) with margin; a wrong sign or a missing term
+// is of the size of the scale itself.
+TEST_P(ConstraintTermsEmit, MatchesTheRuntime) {
+  Block blk(GetParam());
+  const jrgen::topology::Tree& tree = blk.tree;
+  const jr::Model& model = blk.rt->model();
+  const jr::ConstraintModel& cm = blk.rt->constraints();
+  ASSERT_EQ(blk.values.phi.size(), static_cast<std::size_t>(cm.nc));
+  ASSERT_EQ(blk.values.phiq_packed.size(), static_cast<std::size_t>(cm.phiq_nnz));
+  std::mt19937_64 rng(20);
+  std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>> states;
+  for (std::size_t s = 0; s < blk.analysis.configurations.size() && s < 2; ++s) {
+    Eigen::VectorXd q, v;
+    random_state(tree, rng, q, v);
+    states.emplace_back(blk.analysis.configurations[s], v);  // assembled q, any v
+  }
+  for (int trial = 0; trial < 3; ++trial) {
+    Eigen::VectorXd q, v;
+    random_state(tree, rng, q, v);
+    states.emplace_back(q, v);
+  }
+  for (std::size_t s = 0; s < states.size(); ++s) {
+    const auto& [q, v] = states[s];
+    SCOPED_TRACE("state " + std::to_string(s) + (s < 2 ? " (assembled)" : " (random)"));
+    const std::vector<double> x = blk.evaluate(q, v);
+    Eigen::VectorXd phi(cm.nc), phi2(cm.nc), gamma(cm.nc), Phiq = Eigen::VectorXd::Zero(cm.phiq_nnz);
+    jr::constraints(model, cm, blk.rt->workspace(), q.data(), phi.data());
+    jr::kinematics(model, blk.rt->workspace(), q.data());
+    jr::constraint_terms(model, cm, blk.rt->workspace(), blk.rt->motion(), q.data(), v.data(), phi2.data(),
+                         Phiq.data(), gamma.data());
+    double L = 1.0, V = 1.0;
+    for (int i = 0; i < model.nb; ++i) {
+      L = std::max(L, blk.rt->motion()[i].p.norm());
+      V = std::max({V, blk.rt->motion()[i].w.norm(), blk.rt->motion()[i].v.norm()});
+    }
+    L = std::max({L, max_abs(Phiq), max_abs(phi)});
+    const double tol_pos = 100.0 * kEps * L, tol_gamma = 100.0 * kEps * std::max(V * V * L, max_abs(gamma));
+    for (int r = 0; r < cm.nc; ++r) {
+      EXPECT_NEAR(Program::value(blk.values.phi[r], x), phi[r], tol_pos) << "Phi row " << r;
+      EXPECT_NEAR(Program::value(blk.values.gamma[r], x), gamma[r], tol_gamma) << "gamma row " << r;
+    }
+    for (int k = 0; k < cm.phiq_nnz; ++k)
+      EXPECT_NEAR(Program::value(blk.values.phiq_packed[k], x), Phiq[k], tol_pos) << "packed Phiq entry " << k;
+  }
+}
+
+std::vector<ModelCase> cases() {
+  std::vector<ModelCase> out;
+  for (const ModelCase& c : jrgen::testing::loop_models())
+    if (c.name.find("train") == std::string::npos) out.push_back(c);
+  return out;
+}
+
+INSTANTIATE_TEST_SUITE_P(All, ConstraintTermsEmit, ::testing::ValuesIn(cases()),
+                         [](const auto& info) { return info.param.name; });
+
+// gamma = -(d/dt Phiq) v at qdd = 0: along q(t) = q "+" t v (constant v in
+// the velocity coordinates, analysis::integrate), Phi_ddot = d/dt (Phiq v),
+// so gamma = -(Phiq(q "+" h v) v - Phiq(q "-" h v) v) / (2 h) + O(h^2), with
+// Phiq from the runtime (dense, unpacked): independent of both gammas.  With
+// h = 1e-4 / V the truncation error is ~ h^2 V^3 L ~ 1e-8 V L and the
+// rounding ~ eps L V / h ~ 1e-12 V^2 L: 1e-6 V^2 L is far above both and
+// far below a wrong term.
+TEST(ConstraintTermsEmitGamma, MatchesCentralDifferenceOfPhiqV) {
+  for (const char* name : {"loops_hmmwv14", "loops_stewart"}) {
+    SCOPED_TRACE(name);
+    Block blk(jrgen::testing::find_model_case(name));
+    const jrgen::topology::Tree& tree = blk.tree;
+    const jr::Model& model = blk.rt->model();
+    const jr::ConstraintModel& cm = blk.rt->constraints();
+    std::mt19937_64 rng(7);
+    Eigen::VectorXd q0, v;
+    random_state(tree, rng, q0, v);
+    const Eigen::VectorXd q = blk.analysis.configurations.front();
+    const double V = std::max(1.0, max_abs(v));
+    const double h = 1e-4 / V;
+    auto phiq_v = [&](double t) {
+      Eigen::VectorXd qt = q;
+      jrgen::analysis::integrate(tree, qt, t * v);
+      Eigen::VectorXd Pp = Eigen::VectorXd::Zero(cm.phiq_nnz);
+      Eigen::MatrixXd P(cm.nc, tree.nv);
+      jr::kinematics(model, blk.rt->workspace(), qt.data());
+      jr::constraint_terms(model, cm, blk.rt->workspace(), blk.rt->motion(), qt.data(), nullptr, nullptr, Pp.data(),
+                           nullptr);
+      jr::unpack_constraint_jacobian(model, cm, Pp.data(), P.data());
+      return Eigen::VectorXd(P * v);
+    };
+    const Eigen::VectorXd reference = -(phiq_v(h) - phiq_v(-h)) / (2.0 * h);
+    const std::vector<double> x = blk.evaluate(q, v);
+    double L = 1.0;
+    for (int i = 0; i < model.nb; ++i) L = std::max(L, blk.rt->motion()[i].p.norm());
+    const double tol = 1e-6 * V * V * L;
+    double largest = 0.0;
+    for (int r = 0; r < cm.nc; ++r) {
+      EXPECT_NEAR(Program::value(blk.values.gamma[r], x), reference[r], tol) << "row " << r;
+      largest = std::max(largest, std::abs(reference[r]));
+    }
+    EXPECT_GT(largest, 1e3 * tol) << "the reference is too small to tell";
+  }
+}
+
+// Operation counts of the block (printed for the report) and folding: the
+// spherical cuts of the Stewart platform have point rows in the cut frame,
+// so their Jacobian entries cost no multiplication beyond the dof's point
+// velocity.
+TEST(ConstraintTermsEmitCounts, PrintsTheBlockCounts) {
+  for (const char* name : {"loops_hmmwv14", "loops_stewart"}) {
+    Block blk(jrgen::testing::find_model_case(name));
+    for (const auto& [block, ops] : blk.program.count())
+      std::cout << name << " " << block << ": add " << ops.add << ", mul " << ops.mul << ", div " << ops.div
+                << ", sqrt " << ops.sqrt << ", trig " << ops.trig << "\n";
+    const auto counts = blk.program.count();
+    ASSERT_EQ(counts.size(), 2u);
+    EXPECT_GT(counts[1].second.mul, 0);
+  }
+}
+
+}  // namespace
