@@ -85,10 +85,12 @@ CutFrames cut_frames(const topology::Tree& tree, const topology::Cut& cut, const
   return f;
 }
 
-// Twist (w, v at the body origin o) of one dof in Fk coordinates.  The
-// translations of floating and planar joints are in the joint frame J
-// (S = R_J^T e in C): carried through P, R_FC R_J^T R_PJ^T ... = R_FP R_PJ e,
-// which is what the runtime's R_WC S is without the q-dependent R_J R_J^T.
+// Twist (w, v at the body origin o) of one dof in Fk coordinates: the
+// runtime's world twist R_WC S (runtime.cpp, evaluate_cuts) with Fk in place
+// of the world.  The translations of floating and planar joints are along a
+// direction e of the joint frame J (S = R_J^T e in C), so
+// R_FC S = R_FP R_PJ R_J R_J^T e = R_FP R_PJ e: the product R_J R_J^T, which
+// the Program cannot see is the identity, is left out.
 struct Twist {
   Vec3 w, v, o;
 };
