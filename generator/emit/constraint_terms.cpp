@@ -8,6 +8,8 @@
 #include <cmath>
 #include <map>
 
+#include "emit/format.hpp"
+
 namespace jrgen::emit {
 
 namespace {
@@ -252,8 +254,8 @@ ConstraintValues constraint_terms(Program& program, const topology::Tree& tree, 
   out.phiq_packed.assign(nnz, Value(0.0));
   std::size_t phiq_start = 0;
   for (const topology::Cut& cut : tree.cuts) {
-    program.comment(fmt::format("cut '{}' ({}): bodies {} and {}, in the coordinates of its frame on k", cut.name,
-                                ir::cut_type_name(cut.type), cut.body_k, cut.body_l));
+    program.comment(fmt::format("cut '{}' ({}): bodies {} and {}, in the coordinates of its frame on k",
+                                comment_text(cut.name), ir::cut_type_name(cut.type), cut.body_k, cut.body_l));
     const CutFrames f = cut_frames(tree, cut, frames);
     const FrameMotion k = frame_motion(cut.body_k, cut.X_BkF.p, mat3(cut.X_BkF.R.transpose()), motion);
     const FrameMotion l = frame_motion(cut.body_l, cut.X_BlF.p, cut.body_l < 0 ? identity3() : f.body.at(cut.body_l).R,
