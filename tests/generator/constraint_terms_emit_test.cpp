@@ -166,6 +166,42 @@ std::vector<ModelCase> cases() {
 INSTANTIATE_TEST_SUITE_P(All, ConstraintTermsEmit, ::testing::ValuesIn(cases()),
                          [](const auto& info) { return info.param.name; });
 
+// Without body motions (positions only, e.g. for a projection onto Phi = 0)
+// the block gives Phi and Phiq and no gamma, and needs no input v.
+TEST(ConstraintTermsEmitPositions, WithoutMotionGivesPhiAndPhiq) {
+  for (const char* name : {"loops_hmmwv14", "loops_stewart"}) {
+    SCOPED_TRACE(name);
+    const jrgen::ir::Robot robot = jrgen::testing::read_model_case(jrgen::testing::find_model_case(name));
+    jrgen::topology::Tree tree = jrgen::topology::build_tree(robot);
+    jrgen::analysis::analyze_constraints(robot, tree, /*strict=*/false);
+    jrgen::analysis::RuntimeModel rt(tree, Eigen::Vector3d::Zero());
+    const jr::ConstraintModel& cm = rt.constraints();
+    Program program("const double* q");
+    program.begin_function("terms", "test");
+    program.begin_block("constraints");
+    const auto values = jrgen::emit::constraint_terms(program, tree, jrgen::emit::joint_frames(program, tree), {});
+    EXPECT_TRUE(values.gamma.empty());
+    std::mt19937_64 rng(3);
+    Eigen::VectorXd q, v;
+    random_state(tree, rng, q, v);
+    const std::vector<double> x = program.evaluate([&](const std::string& in) {
+      EXPECT_EQ(in[0], 'q') << in;
+      return q[std::stoi(in.substr(2, in.size() - 3))];
+    });
+    Eigen::VectorXd phi(cm.nc), Phiq = Eigen::VectorXd::Zero(cm.phiq_nnz);
+    jr::kinematics(rt.model(), rt.workspace(), q.data());
+    jr::constraint_terms(rt.model(), cm, rt.workspace(), rt.motion(), q.data(), nullptr, phi.data(), Phiq.data(),
+                         nullptr);
+    double L = 1.0;  // as in MatchesTheRuntime
+    for (int i = 0; i < rt.model().nb; ++i) L = std::max(L, rt.motion()[i].p.norm());
+    L = std::max({L, max_abs(Phiq), max_abs(phi)});
+    ASSERT_EQ(values.phi.size(), static_cast<std::size_t>(cm.nc));
+    for (int r = 0; r < cm.nc; ++r) EXPECT_NEAR(Program::value(values.phi[r], x), phi[r], 100.0 * kEps * L);
+    for (int k = 0; k < cm.phiq_nnz; ++k)
+      EXPECT_NEAR(Program::value(values.phiq_packed[k], x), Phiq[k], 100.0 * kEps * L);
+  }
+}
+
 // gamma = -(d/dt Phiq) v at qdd = 0: along q(t) = q "+" t v (constant v in
 // the velocity coordinates, analysis::integrate), Phi_ddot = d/dt (Phiq v),
 // so gamma = -(Phiq(q "+" h v) v - Phiq(q "-" h v) v) / (2 h) + O(h^2), with
