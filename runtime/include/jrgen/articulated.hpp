@@ -39,7 +39,8 @@ struct ArticulatedState {
   Vector6d pA;  ///< articulated bias force pA_i
   Vector6d c;   ///< velocity-product acceleration c_i = c_J + v_i x v_J
   Vector6d u;   ///< first nv entries: u_i = tau_i - damping qd_i - S_i^T pA_i
-  Vector6d a;   ///< acceleration of the body, body coordinates (pass 3)
+  Vector6d a;   ///< acceleration of the body, body coordinates (pass 3); with gravity, that of a
+                ///< base accelerating at -g (Featherstone's trick): the true one minus g
   Matrix6d W;   ///< first nv columns: W_i = U_i D_i^-1, U_i = IA_i S_i
   Matrix6d Dinv;  ///< top-left nv x nv block: D_i^-1, D_i = S_i^T IA_i S_i
 };
@@ -53,10 +54,13 @@ struct ArticulatedState {
 /// bodies: after jr::kinematics() at q (R, p and S are read; v is written).
 /// v, tau: (nv) user order.  qdd_lem, pivots_lem: (nv) Lemma 2 order; dof
 /// v_lem + k of a joint is the k-th dof of its D_i, pivoted in that order.
-/// Returns -1 on success, else the Lemma 2 dof whose pivot was not positive
-/// (or NaN), with that pivot in pivots_lem[dof]; qdd_lem is then not
-/// written and the pivots of the dofs after it are undefined.  Instantiated
-/// for the four combinations, as jr::bias_forces.
+/// Returns -1 on success (as jr::factor_packed; 0 is dof 0, a failure), else
+/// the Lemma 2 dof whose pivot was not positive (or NaN), with that pivot in
+/// pivots_lem[dof]; qdd_lem is then not written and the pivots of the dofs
+/// after it are undefined.  No relative tolerance (Step 1's kPivotTolerance
+/// compares with M[j, j], not formed here): a tiny positive pivot is left to
+/// the digits test.  Instantiated for the four combinations, as
+/// jr::bias_forces.
 template <bool kGravity, bool kDamping>
 std::int32_t articulated_dynamics(const Model& model, BodyState* bodies, ArticulatedState* work, const double* v,
                                   const double* tau, double* qdd_lem, double* pivots_lem);
