@@ -250,6 +250,13 @@ TEST(ArticulatedChain, TenThousandJointsInLinearTime) {
   const double scale = (id_lem - h_lem).norm() + tau.norm() + h_lem.norm();
   const double r = (id_lem - tau_lem).norm();
   EXPECT_LE(r, 100.0 * f.nv * kEps * scale) << "|r| = " << r << ", scale " << scale;
+  // articulated_solve on the same factorization: M x = f with M x from
+  // inverse_dynamics at zero velocity, without gravity and damping (= M x).
+  Eigen::VectorXd x_lem = f.to_lem(tau), Mx_lem(f.nv);
+  jr::articulated_solve(f.model(), f.bodies(), f.work.data(), x_lem.data());
+  jr::inverse_dynamics<false, false>(f.model(), f.bodies(), zero.data(), x_lem.data(), Mx_lem.data());
+  EXPECT_LE((Mx_lem - tau_lem).norm(), 100.0 * f.nv * kEps * (Mx_lem.norm() + tau.norm()))
+      << "solve: |r| = " << (Mx_lem - tau_lem).norm();
   // Informational: the bound actually reached, and the time of one call.
   std::printf("chain10000: |r| / (eps scale) = %.3g, pivot spread ok, articulated_dynamics %.2f ms\n",
               r / (kEps * scale), 1e3 * seconds);
