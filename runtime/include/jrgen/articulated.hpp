@@ -1,0 +1,93 @@
+// jrgen runtime: the articulated-body route to the forward dynamics of a tree
+// (issue 20, item 2), O(n) whatever the depth: Featherstone, Rigid Body
+// Dynamics Algorithms (2008), Table 7.1.  The paper's route (M by eq. 14/18,
+// then the no-fill-in factorization of Lemma 2) costs O(n d^2) for depth d,
+// O(n^3) on a chain; this one costs O(n) on every tree.
+//
+// Same conventions as jrgen/runtime.hpp: bodies in Lemma 2 order (parent >
+// child, so a forward loop is leaves-first), spatial vectors angular first in
+// body coordinates, gravity entered as the base's acceleration -g, joint
+// damping as in jr::bias_forces (a force damping * v on each velocity
+// coordinate, part of h).  Inputs handed in by users (v, tau) are in user
+// order, computed per-dof quantities (qdd, pivots, tau of inverse_dynamics)
+// in Lemma 2 order, like h_lem of jr::bias_forces: dof j of Lemma 2 order is
+// user coordinate Model::dof_user[j].
+//
+// Pivots.  Eliminating a leaf's dofs from M (the leaves-first L D L^T of
+// Step 1, Lemma 2 order) replaces the leaf's inertia by its articulated
+// inertia, and the Schur complement left on the parent's block is
+// S_p^T IA_p S_p (RBDA Sec. 6.5).  So the pivots of this algorithm, the
+// L D L^T pivots of each joint's D_i = S_i^T IA_i S_i in the joint's own dof
+// order, are the pivots of Step 1's factorization of M (in exact arithmetic),
+// and the digits test of the generated solvers (jr::pivot_spread with
+// inverse = false, power = 1) applies to them unchanged.
+#pragma once
+
+#include "jrgen/runtime.hpp"
+
+namespace jr {
+
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+
+/// Per-body scratch of the articulated-body algorithm (Lemma 2 order), owned
+/// by the caller: an array of Model::nb of them.  Nothing allocates.  After
+/// articulated_dynamics() succeeded, W and Dinv describe the factorization of
+/// M at this configuration and articulated_solve() reuses them; pA, u and a
+/// are overwritten by every call of either function.
+struct ArticulatedState {
+  Matrix6d IA;  ///< articulated inertia IA_i, body coordinates (complete once pass 2 reaches i)
+  Vector6d pA;  ///< articulated bias force pA_i
+  Vector6d c;   ///< velocity-product acceleration c_i = c_J + v_i x v_J
+  Vector6d u;   ///< first nv entries: u_i = tau_i - damping qd_i - S_i^T pA_i
+  Vector6d a;   ///< acceleration of the body, body coordinates (pass 3); with gravity, that of a
+                ///< base accelerating at -g (Featherstone's trick): the true one minus g
+  Matrix6d W;   ///< first nv columns: W_i = U_i D_i^-1, U_i = IA_i S_i
+  Matrix6d Dinv;  ///< top-left nv x nv block: D_i^-1, D_i = S_i^T IA_i S_i
+};
+
+/// qdd = M^-1 (tau - h) by the articulated-body algorithm: pass 1 (root
+/// first) body velocities v_i (written to bodies[i].v), c_i and the rigid
+/// inertias; pass 2 (leaves first) articulated inertias IA_i and bias forces
+/// pA_i, with an L D L^T of each joint's D_i; pass 3 (root first)
+/// accelerations (work[i].a) and qdd.
+///
+/// bodies: after jr::kinematics() at q (R, p and S are read; v is written).
+/// v, tau: (nv) user order.  qdd_lem, pivots_lem: (nv) Lemma 2 order; dof
+/// v_lem + k of a joint is the k-th dof of its D_i, pivoted in that order.
+/// Returns -1 on success (as jr::factor_packed; 0 is dof 0, a failure), else
+/// the Lemma 2 dof whose pivot was not positive (or NaN), with that pivot in
+/// pivots_lem[dof]; qdd_lem is then not written and the pivots of the dofs
+/// after it are undefined.  No relative tolerance (Step 1's kPivotTolerance
+/// compares with M[j, j], not formed here): a tiny positive pivot is left to
+/// the digits test.  Instantiated for the four combinations, as
+/// jr::bias_forces.
+template <bool kGravity, bool kDamping>
+std::int32_t articulated_dynamics(const Model& model, BodyState* bodies, ArticulatedState* work, const double* v,
+                                  const double* tau, double* qdd_lem, double* pivots_lem);
+
+/// Runtime switch over the four instantiations.
+std::int32_t articulated_dynamics(const Model& model, BodyState* bodies, ArticulatedState* work, const double* v,
+                                  const double* tau, double* qdd_lem, double* pivots_lem, bool gravity,
+                                  bool damping);
+
+/// x = M^-1 f, in place on x_lem ((nv), Lemma 2 order both ways), with the
+/// factorization left in work by a successful articulated_dynamics() at the
+/// same configuration (bodies unchanged since): passes 2 and 3 only, at zero
+/// velocity and gravity, O(n) per right-hand side.  For the columns of
+/// M^-1 Phiq^T that closed loops need.
+void articulated_solve(const Model& model, const BodyState* bodies, ArticulatedState* work, double* x_lem);
+
+/// tau = M qdd + h (h as jr::bias_forces: with gravity when kGravity, damping
+/// when kDamping) by the recursive Newton-Euler algorithm with qdd: O(n), no
+/// M formed.  For the residual of a forward-dynamics solve.  bodies: after
+/// jr::kinematics(); v, a, f are overwritten.  v: (nv) user order;
+/// qdd_lem, tau_lem: (nv) Lemma 2 order.
+template <bool kGravity, bool kDamping>
+void inverse_dynamics(const Model& model, BodyState* bodies, const double* v, const double* qdd_lem,
+                      double* tau_lem);
+
+/// Runtime switch over the four instantiations.
+void inverse_dynamics(const Model& model, BodyState* bodies, const double* v, const double* qdd_lem,
+                      double* tau_lem, bool gravity, bool damping);
+
+}  // namespace jr

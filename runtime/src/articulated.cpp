@@ -1,0 +1,321 @@
+// jrgen runtime: the articulated-body algorithm (RBDA Table 7.1) and the
+// recursive Newton-Euler algorithm with accelerations.  Formulas (a), (b),
+// (c), (e), (f) are those of runtime.cpp, written again here for the
+// articulated inertias (6 x 6 matrices, which runtime.cpp never forms).
+// With X_PC = (R, p), P = [p]x, motions map P -> C by M = [[R^T, 0], [-R^T P, R^T]]
+// and forces C -> P by F = M^T = [[1, P], [0, 1]] diag(R, R), so an inertia
+// maps C -> P by
+//   (g) I_P = F I_C F^T: with A', B', C' the blocks of I_C rotated by R
+//       (A' = R A R^T, ...), and B'' = B' + P C',
+//       I_P = [[A' + P B'^T - B'' P,  B''], [B''^T,  C']].
+#include "jrgen/articulated.hpp"
+
+#include <Eigen/Geometry>  // cross products
+#include <type_traits>
+
+namespace jr {
+
+namespace {
+
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+
+Matrix3d skew(const Vector3d& p) {
+  Matrix3d P;
+  P << 0.0, -p.z(), p.y(), p.z(), 0.0, -p.x(), -p.y(), p.x(), 0.0;
+  return P;
+}
+
+// (a) motion P -> C.
+Vector6d motion_to_child(const BodyState& b, const Vector6d& m_P) {
+  const Vector3d w_P = m_P.head<3>(), v_P = m_P.tail<3>();
+  Vector6d m_C;
+  m_C.head<3>() = b.R.transpose() * w_P;
+  m_C.tail<3>() = b.R.transpose() * (v_P - b.p.cross(w_P));
+  return m_C;
+}
+
+// (b) force C -> P.
+Vector6d force_to_parent(const BodyState& b, const Vector6d& f_C) {
+  Vector6d f_P;
+  f_P.tail<3>() = b.R * f_C.tail<3>();
+  f_P.head<3>() = b.R * f_C.head<3>() + b.p.cross(f_P.tail<3>());
+  return f_P;
+}
+
+// (e) motion cross motion.
+Vector6d cross_motion(const Vector6d& a, const Vector6d& b) {
+  Vector6d out;
+  out.head<3>() = a.head<3>().cross(b.head<3>());
+  out.tail<3>() = a.head<3>().cross(b.tail<3>()) + a.tail<3>().cross(b.head<3>());
+  return out;
+}
+
+// (f) motion cross force.
+Vector6d cross_force(const Vector6d& v, const Vector6d& f) {
+  Vector6d out;
+  out.head<3>() = v.head<3>().cross(f.head<3>()) + v.tail<3>().cross(f.tail<3>());
+  out.tail<3>() = v.head<3>().cross(f.tail<3>());
+  return out;
+}
+
+// The body's rigid inertia about its origin as the 6 x 6 map (c):
+// [[I_o, [h]x], [[h]x^T, m 1]], h = m c, I_o = I_com + m (|c|^2 1 - c c^T).
+Matrix6d rigid_inertia(const BodyModel& bm) {
+  const Vector3d c(bm.com[0], bm.com[1], bm.com[2]);
+  Matrix3d Ic;
+  Ic << bm.I_com[0], bm.I_com[3], bm.I_com[4], bm.I_com[3], bm.I_com[1], bm.I_com[5], bm.I_com[4], bm.I_com[5],
+      bm.I_com[2];
+  const Matrix3d H = skew(bm.mass * c);
+  Matrix6d I;
+  I.topLeftCorner<3, 3>() = Ic + bm.mass * (c.squaredNorm() * Matrix3d::Identity() - c * c.transpose());
+  I.topRightCorner<3, 3>() = H;
+  I.bottomLeftCorner<3, 3>() = H.transpose();
+  I.bottomRightCorner<3, 3>() = bm.mass * Matrix3d::Identity();
+  return I;
+}
+
+// (g): I_P += F I_C F^T.
+void add_inertia_to_parent(const BodyState& b, const Matrix6d& I_C, Matrix6d& I_P) {
+  const Matrix3d& R = b.R;
+  const Matrix3d A = R * I_C.topLeftCorner<3, 3>() * R.transpose();
+  const Matrix3d B = R * I_C.topRightCorner<3, 3>() * R.transpose();
+  const Matrix3d C = R * I_C.bottomRightCorner<3, 3>() * R.transpose();
+  const Matrix3d P = skew(b.p);
+  const Matrix3d B2 = B + P * C;
+  I_P.topLeftCorner<3, 3>() += A + P * B.transpose() - B2 * P;
+  I_P.topRightCorner<3, 3>() += B2;
+  I_P.bottomLeftCorner<3, 3>() += B2.transpose();
+  I_P.bottomRightCorner<3, 3>() += C;
+}
+
+// Joint velocity v_J = S qd and c_J = (dS/dt) qd (floating, planar: the
+// translation is expressed in the joint frame), as in runtime.cpp.
+void joint_velocity(const BodyModel& bm, const BodyState& b, const double* v_user, Vector6d& vJ, Vector6d& cJ) {
+  const double* qd = v_user + bm.v_user;
+  vJ.setZero();
+  for (int k = 0; k < bm.nv; ++k) vJ += b.S.col(k) * qd[k];
+  cJ.setZero();
+  if (bm.kind == JointKind::kFloating || bm.kind == JointKind::kPlanar)
+    cJ.tail<3>() = -vJ.head<3>().cross(vJ.tail<3>());
+}
+
+// Pass 1, root first: v_i = X v_p + v_J, c_i = c_J + v_i x v_J, IA_i = I_i,
+// pA_i = v_i x* I_i v_i.
+void velocity_pass(const Model& model, BodyState* bodies, ArticulatedState* work, const double* v) {
+  Vector6d vJ, cJ;
+  for (std::int32_t i = model.nb - 1; i >= 0; --i) {
+    const BodyModel& bm = model.bodies[i];
+    BodyState& b = bodies[i];
+    ArticulatedState& w = work[i];
+    joint_velocity(bm, b, v, vJ, cJ);
+    b.v = bm.parent < 0 ? vJ : Vector6d(motion_to_child(b, bodies[bm.parent].v) + vJ);
+    w.c = cJ + cross_motion(b.v, vJ);
+    w.IA = rigid_inertia(bm);
+    w.pA = cross_force(b.v, w.IA * b.v);
+  }
+}
+
+// L D L^T of the joint's D in its own dof order (that of Step 1), and D^-1.
+// Returns -1, or the first k whose pivot is not positive (NaN included).
+template <int N>
+int factor_joint(const Eigen::Matrix<double, N, N>& D, double* pivots, Eigen::Matrix<double, N, N>& Dinv) {
+  if constexpr (N == 1) {
+    pivots[0] = D(0, 0);
+    if (!(pivots[0] > 0.0)) return 0;
+    Dinv(0, 0) = 1.0 / pivots[0];
+    return -1;
+  }
+  Eigen::Matrix<double, N, N> L = Eigen::Matrix<double, N, N>::Identity();
+  for (int j = 0; j < N; ++j) {
+    double d = D(j, j);
+    for (int k = 0; k < j; ++k) d -= L(j, k) * L(j, k) * pivots[k];
+    pivots[j] = d;
+    if (!(d > 0.0)) return j;
+    for (int i = j + 1; i < N; ++i) {
+      double s = D(i, j);
+      for (int k = 0; k < j; ++k) s -= L(i, k) * L(j, k) * pivots[k];
+      L(i, j) = s / d;
+    }
+  }
+  // D^-1 = L^-T diag(1 / d) L^-1.
+  Eigen::Matrix<double, N, N> Linv = L.template triangularView<Eigen::UnitLower>().solve(
+      Eigen::Matrix<double, N, N>::Identity());
+  Eigen::Matrix<double, N, 1> dinv;
+  for (int j = 0; j < N; ++j) dinv[j] = 1.0 / pivots[j];
+  Dinv = Linv.transpose() * dinv.asDiagonal() * Linv;
+  return -1;
+}
+
+// Pass 2 for one body with N dofs: U = IA S, D = S^T U, u = tau - damping qd
+// - S^T pA; then Ia = IA - U D^-1 U^T and pa = pA + Ia c + U D^-1 u go to the
+// parent.  Returns -1 or the failing dof of the joint (0 .. N-1).
+template <int N, bool kDamping>
+int articulated_body(const Model& model, BodyState* bodies, ArticulatedState* work, std::int32_t i, const double* v,
+                     const double* tau, double* pivots) {
+  const BodyModel& bm = model.bodies[i];
+  const BodyState& b = bodies[i];
+  ArticulatedState& w = work[i];
+  const auto S = b.S.leftCols<N>();
+  const Eigen::Matrix<double, 6, N> U = w.IA * S;
+  const Eigen::Matrix<double, N, N> D = S.transpose() * U;
+  Eigen::Matrix<double, N, N> Dinv;
+  if (const int k = factor_joint<N>(D, pivots + bm.v_lem, Dinv); k >= 0) return k;
+  w.Dinv.topLeftCorner<N, N>() = Dinv;
+  const Eigen::Matrix<double, 6, N> W = U * Dinv;
+  w.W.leftCols<N>() = W;
+  Eigen::Matrix<double, N, 1> u = -S.transpose() * w.pA;
+  for (int k = 0; k < N; ++k) {
+    u[k] += tau[bm.v_user + k];
+    if constexpr (kDamping) u[k] -= bm.damping * v[bm.v_user + k];
+  }
+  w.u.head<N>() = u;
+  if (bm.parent < 0) return -1;
+  const Matrix6d Ia = w.IA - W * U.transpose();
+  const Vector6d pa = w.pA + Ia * w.c + W * u;
+  add_inertia_to_parent(b, Ia, work[bm.parent].IA);
+  work[bm.parent].pA += force_to_parent(b, pa);
+  return -1;
+}
+
+// Pass 3 for one body: a' = X a_p + c (c = 0 at zero velocity), qdd = D^-1 u
+// - W^T a', a = a' + S qdd.
+template <int N, bool kVelocity>
+void acceleration(const BodyModel& bm, const BodyState& b, ArticulatedState& w, const Vector6d& a_parent,
+                  double* qdd_lem) {
+  Vector6d a = motion_to_child(b, a_parent);
+  if constexpr (kVelocity) a += w.c;
+  const Eigen::Matrix<double, N, 1> qdd =
+      w.Dinv.topLeftCorner<N, N>() * w.u.head<N>() - w.W.leftCols<N>().transpose() * a;
+  for (int k = 0; k < N; ++k) qdd_lem[bm.v_lem + k] = qdd[k];
+  w.a = a + b.S.leftCols<N>() * qdd;
+}
+
+// The joint kinds have 1, 3 or 6 dofs (runtime.hpp); every count up to 6 is
+// dispatched all the same.
+template <typename F>
+auto by_dofs(std::int32_t nv, F&& f) {
+  switch (nv) {
+    case 1: return f(std::integral_constant<int, 1>());
+    case 2: return f(std::integral_constant<int, 2>());
+    case 3: return f(std::integral_constant<int, 3>());
+    case 4: return f(std::integral_constant<int, 4>());
+    case 5: return f(std::integral_constant<int, 5>());
+    default: return f(std::integral_constant<int, 6>());
+  }
+}
+
+template <bool kVelocity>
+void acceleration_pass(const Model& model, const BodyState* bodies, ArticulatedState* work, const Vector6d& a_base,
+                       double* qdd_lem) {
+  for (std::int32_t i = model.nb - 1; i >= 0; --i) {
+    const BodyModel& bm = model.bodies[i];
+    const Vector6d& a_parent = bm.parent < 0 ? a_base : work[bm.parent].a;
+    by_dofs(bm.nv, [&](auto n) { acceleration<decltype(n)::value, kVelocity>(bm, bodies[i], work[i], a_parent, qdd_lem); });
+  }
+}
+
+}  // namespace
+
+template <bool kGravity, bool kDamping>
+std::int32_t articulated_dynamics(const Model& model, BodyState* bodies, ArticulatedState* work, const double* v,
+                                  const double* tau, double* qdd_lem, double* pivots_lem) {
+  velocity_pass(model, bodies, work, v);
+  for (std::int32_t i = 0; i < model.nb; ++i) {
+    const int k = by_dofs(model.bodies[i].nv, [&](auto n) {
+      return articulated_body<decltype(n)::value, kDamping>(model, bodies, work, i, v, tau, pivots_lem);
+    });
+    if (k >= 0) return model.bodies[i].v_lem + k;
+  }
+  // Gravity as the base's acceleration -g (as jr::bias_forces).
+  Vector6d a_base = Vector6d::Zero();
+  if constexpr (kGravity) a_base.tail<3>() = -Vector3d(model.gravity[0], model.gravity[1], model.gravity[2]);
+  acceleration_pass<true>(model, bodies, work, a_base, qdd_lem);
+  return -1;
+}
+
+template std::int32_t articulated_dynamics<false, false>(const Model&, BodyState*, ArticulatedState*, const double*,
+                                                         const double*, double*, double*);
+template std::int32_t articulated_dynamics<false, true>(const Model&, BodyState*, ArticulatedState*, const double*,
+                                                        const double*, double*, double*);
+template std::int32_t articulated_dynamics<true, false>(const Model&, BodyState*, ArticulatedState*, const double*,
+                                                        const double*, double*, double*);
+template std::int32_t articulated_dynamics<true, true>(const Model&, BodyState*, ArticulatedState*, const double*,
+                                                       const double*, double*, double*);
+
+std::int32_t articulated_dynamics(const Model& model, BodyState* bodies, ArticulatedState* work, const double* v,
+                                  const double* tau, double* qdd_lem, double* pivots_lem, bool gravity,
+                                  bool damping) {
+  if (gravity)
+    return damping ? articulated_dynamics<true, true>(model, bodies, work, v, tau, qdd_lem, pivots_lem)
+                   : articulated_dynamics<true, false>(model, bodies, work, v, tau, qdd_lem, pivots_lem);
+  return damping ? articulated_dynamics<false, true>(model, bodies, work, v, tau, qdd_lem, pivots_lem)
+                 : articulated_dynamics<false, false>(model, bodies, work, v, tau, qdd_lem, pivots_lem);
+}
+
+void articulated_solve(const Model& model, const BodyState* bodies, ArticulatedState* work, double* x_lem) {
+  // Pass 2 at zero velocity: pA_i is the sum of the children's pa = pA + U D^-1 u
+  // (Ia c = 0), u_i = f_i - S_i^T pA_i.
+  for (std::int32_t i = 0; i < model.nb; ++i) work[i].pA.setZero();
+  for (std::int32_t i = 0; i < model.nb; ++i) {
+    const BodyModel& bm = model.bodies[i];
+    ArticulatedState& w = work[i];
+    by_dofs(bm.nv, [&](auto n) {
+      constexpr int N = decltype(n)::value;
+      const Eigen::Matrix<double, N, 1> u =
+          Eigen::Map<const Eigen::Matrix<double, N, 1>>(x_lem + bm.v_lem) - bodies[i].S.leftCols<N>().transpose() * w.pA;
+      w.u.head<N>() = u;
+      if (bm.parent >= 0) work[bm.parent].pA += force_to_parent(bodies[i], w.pA + w.W.leftCols<N>() * u);
+    });
+  }
+  acceleration_pass<false>(model, bodies, work, Vector6d::Zero(), x_lem);
+}
+
+template <bool kGravity, bool kDamping>
+void inverse_dynamics(const Model& model, BodyState* bodies, const double* v, const double* qdd_lem,
+                      double* tau_lem) {
+  // Forward sweep: a_i = X a_p + S qdd + c_J + v_i x v_J, f_i = I a_i + v_i x* I v_i.
+  Vector6d a_base = Vector6d::Zero();
+  if constexpr (kGravity) a_base.tail<3>() = -Vector3d(model.gravity[0], model.gravity[1], model.gravity[2]);
+  Vector6d vJ, cJ;
+  for (std::int32_t i = model.nb - 1; i >= 0; --i) {
+    const BodyModel& bm = model.bodies[i];
+    BodyState& b = bodies[i];
+    joint_velocity(bm, b, v, vJ, cJ);
+    const bool root = bm.parent < 0;
+    b.v = root ? vJ : Vector6d(motion_to_child(b, bodies[bm.parent].v) + vJ);
+    b.a = motion_to_child(b, root ? a_base : bodies[bm.parent].a) + cJ + cross_motion(b.v, vJ);
+    for (int k = 0; k < bm.nv; ++k) b.a += b.S.col(k) * qdd_lem[bm.v_lem + k];
+    const Matrix6d I = rigid_inertia(bm);
+    b.f = I * b.a + cross_force(b.v, I * b.v);
+  }
+  // Backward sweep: tau_i = S^T f_i (+ damping qd), f_p += X* f_i.
+  for (std::int32_t i = 0; i < model.nb; ++i) {
+    const BodyModel& bm = model.bodies[i];
+    BodyState& b = bodies[i];
+    for (int k = 0; k < bm.nv; ++k) {
+      double t = b.S.col(k).dot(b.f);
+      if constexpr (kDamping) t += bm.damping * v[bm.v_user + k];
+      tau_lem[bm.v_lem + k] = t;
+    }
+    if (bm.parent >= 0) bodies[bm.parent].f += force_to_parent(b, b.f);
+  }
+}
+
+template void inverse_dynamics<false, false>(const Model&, BodyState*, const double*, const double*, double*);
+template void inverse_dynamics<false, true>(const Model&, BodyState*, const double*, const double*, double*);
+template void inverse_dynamics<true, false>(const Model&, BodyState*, const double*, const double*, double*);
+template void inverse_dynamics<true, true>(const Model&, BodyState*, const double*, const double*, double*);
+
+void inverse_dynamics(const Model& model, BodyState* bodies, const double* v, const double* qdd_lem,
+                      double* tau_lem, bool gravity, bool damping) {
+  if (gravity) {
+    if (damping) inverse_dynamics<true, true>(model, bodies, v, qdd_lem, tau_lem);
+    else inverse_dynamics<true, false>(model, bodies, v, qdd_lem, tau_lem);
+  } else {
+    if (damping) inverse_dynamics<false, true>(model, bodies, v, qdd_lem, tau_lem);
+    else inverse_dynamics<false, false>(model, bodies, v, qdd_lem, tau_lem);
+  }
+}
+
+}  // namespace jr
