@@ -358,22 +358,6 @@ SchurPattern schur_pattern(const topology::Tree& t) {
   return sp;
 }
 
-namespace {
-// A non-negative integer from the environment variable `name`, else `fallback`.
-long long limit_from_environment(const char* name, long long fallback) {
-  if (const char* text = std::getenv(name)) {
-    char* end = nullptr;
-    const long long v = std::strtoll(text, &end, 10);
-    if (*text && !*end && v >= 0) return v;
-  }
-  return fallback;
-}
-}  // namespace
-
-long long step3_unroll_limit() { return limit_from_environment("JRGEN_STEP3_UNROLL_LIMIT", kMaxUnrolledStep3Products); }
-
-long long unroll_limit() { return limit_from_environment("JRGEN_UNROLL_LIMIT", kMaxUnrolledProducts); }
-
 LoopCode emit_loops(const topology::Tree& t, Method method, bool divide, bool unrolled_gathers,
                     const std::string& name_space) {
   LoopCode out;
