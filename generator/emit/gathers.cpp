@@ -11,6 +11,7 @@
 #include "emit/blocks.hpp"
 #include "emit/format.hpp"
 #include "emit/kernel.hpp"
+#include "emit/steps/step3.hpp"
 
 namespace jrgen::emit {
 
@@ -60,6 +61,22 @@ std::string gathers(const topology::Tree& t, const Plan& plan) {
   // A fused Step 1 reads M itself (steps/step1.cpp).
   if (!plan.fused) out += "\n\n" + gather_M(t, plan.unrolled);
   return out;
+}
+
+std::string gather_phiq(const topology::Tree& t, const std::vector<Row>& rows, bool unrolled) {
+  std::vector<long long> from_dense, packed;
+  const long long m = static_cast<long long>(rows.size());
+  for (std::size_t g = 0; g < rows.size(); ++g) {
+    const topology::Cut& cut = t.cuts[rows[g].cut];
+    for (int idx = 0; idx < cut.num_distinct; ++idx) {
+      packed.push_back(rows[g].t_start + idx);
+      from_dense.push_back(static_cast<long long>(g) + m * t.dof_user[cut.dofs[idx]]);
+    }
+  }
+  return gather_function(
+      "// Phiq (dense, user order) -> packed: the structurally non-zero entries only\n"
+      "// (the dofs of Lemma 3 less the common ancestors, where Phiq is zero).\n",
+      "gather_Phiq", "Phiq", "T", packed, from_dense, unrolled);
 }
 
 }  // namespace jrgen::emit
