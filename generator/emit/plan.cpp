@@ -1,5 +1,6 @@
 #include "emit/plan.hpp"
 
+#include <algorithm>
 #include <cstdlib>
 
 #include "emit/kernel.hpp"
@@ -46,6 +47,7 @@ Plan plan_solver(const topology::Tree& t, const Options& options) {
   const bool tree_only = t.cuts.empty();
   if (tree_only && options.method == Method::kLLT) p.supernodes = topology::dense_supernodes(t, kMinDenseSupernode);
   const bool parallel = tree_only && (options.threads >= 2 || (options.threads == 0 && t.nv >= kMinParallelDofs));
+  if (parallel) p.subtrees = topology::partition_subtrees(t, kParallelParts, std::max(16, t.nv / 20));
   p.shape = parallel                          ? Shape::kParallel
             : !p.supernodes.empty()           ? Shape::kSupernodal
             : p.products <= unroll_limit()    ? Shape::kUnrolled

@@ -16,6 +16,9 @@ namespace jrgen::emit {
 /// (Corollary 3, trees).  The same factor (Lemma 2) in every shape.
 enum class Shape { kUnrolled, kTable, kSupernodal, kParallel };
 
+/// The parallel shape's work items: a few per thread on small machines.
+inline constexpr int kParallelParts = 32;
+
 struct Plan {
   Method method = Method::kLLT;
   bool ldlt = false;      ///< method == kLDLT
@@ -27,6 +30,8 @@ struct Plan {
   /// choose the shape, and the op counts of the runtime's loops.
   long long products = 0, chain = 0;
   std::vector<topology::Supernode> supernodes;  ///< non-empty: kSupernodal
+  /// Corollary 3's subtrees below a separator (partition_subtrees); non-empty: kParallel.
+  std::vector<topology::Subtree> subtrees;
   Shape shape = Shape::kUnrolled;
   bool unrolled = false;  ///< shape == kUnrolled
   /// Small unrolled models: a second Step 1 reading the user's dense M

@@ -12,38 +12,63 @@
 
 namespace jrgen::emit {
 
-void parallel_steps(const topology::Tree& t, const Plan& plan, Steps124& out) {
-  constexpr int kParts = 32;  // work items, a few per thread on small machines
-  const std::vector<topology::Subtree> trees =
-      topology::partition_subtrees(t, kParts, std::max(16, t.nv / 20));
-  long long total = 0, buffer = 1, inside = 0;
-  for (const topology::Subtree& s : trees) {
-    total += s.work;
-    buffer = std::max(buffer, s.buffer + static_cast<long long>(s.path) * s.path);
-    inside += s.root - s.first + 1;
-  }
+namespace {
+
+// What the three steps' texts share: the work items and the OpenMP pragma.
+struct Parallel {
+  int n = 0;           ///< subtrees
+  int tasks = 0;       ///< work items
+  bool ldlt = false;
+  const char* flag = "false";  ///< the runtime loops' ldlt argument
+  std::string pragma;  ///< "#pragma omp parallel for", inside #if defined(_OPENMP)
+};
+
+Parallel parallel_of(const Plan& plan, const std::vector<long long>& task_start) {
+  Parallel p;
+  p.n = static_cast<int>(plan.subtrees.size());
+  p.tasks = static_cast<int>(task_start.size()) - 1;
+  p.ldlt = plan.ldlt;
+  p.flag = plan.ldlt ? "true" : "false";
+  const std::string omp =
+      plan.threads >= 2 ? fmt::format("#pragma omp parallel for schedule(dynamic, 1) num_threads({})", plan.threads)
+                        : std::string("#pragma omp parallel for schedule(dynamic, 1)");
+  p.pragma = "#if defined(_OPENMP)\n" + omp + "\n#endif\n";
+  return p;
+}
+
+// Work items: groups of consecutive subtrees of about total / kParallelParts
+// work each; item w runs subtrees task_start[w] .. task_start[w + 1] - 1.
+std::vector<long long> task_starts(const std::vector<topology::Subtree>& trees) {
+  long long total = 0;
+  for (const topology::Subtree& s : trees) total += s.work;
   std::vector<long long> task_start{0};
   long long acc = 0;
   for (std::size_t i = 0; i < trees.size(); ++i) {
     acc += trees[i].work;
-    if (acc * kParts >= total || i + 1 == trees.size()) {
+    if (acc * kParallelParts >= total || i + 1 == trees.size()) {
       task_start.push_back(static_cast<long long>(i) + 1);
       acc = 0;
     }
   }
+  return task_start;
+}
+
+std::string step1_text(const topology::Tree& t, const Plan& plan, const Parallel& par,
+                       const std::vector<long long>& task_start, const OpCount& ops) {
+  const std::vector<topology::Subtree>& trees = plan.subtrees;
+  long long buffer = 1, inside = 0;
   std::string table;
-  for (const topology::Subtree& s : trees)
+  for (const topology::Subtree& s : trees) {
+    buffer = std::max(buffer, s.buffer + static_cast<long long>(s.path) * s.path);
+    inside += s.root - s.first + 1;
     table += fmt::format("  {{{}, {}, {}, {}}},  // {}\n", s.first, s.root, s.path, s.buffer, dof_label(t, s.root));
+  }
   table.pop_back();
-  const int n = static_cast<int>(trees.size());
-  const int tasks = static_cast<int>(task_start.size()) - 1;
-  const bool ldlt = plan.ldlt;
-  const char* flag = ldlt ? "true" : "false";
-  const std::string omp = plan.threads >= 2
-                              ? fmt::format("#pragma omp parallel for schedule(dynamic, 1) num_threads({})", plan.threads)
-                              : std::string("#pragma omp parallel for schedule(dynamic, 1)");
-  const std::string pragma = "#if defined(_OPENMP)\n" + omp + "\n#endif\n";
-  out.step1 = fmt::format(
+  const int n = par.n, tasks = par.tasks;
+  const bool ldlt = par.ldlt;
+  const char* flag = par.flag;
+  const std::string& pragma = par.pragma;
+  return fmt::format(
       "// ---- Step 1: factor {} in place (packed), eq. (25)-(26), parallel. ----\n"
       "{}\n{}\n"
       "constexpr jr::Subtree kSubtrees[{}] = {{\n{}\n}};\n"
@@ -78,8 +103,15 @@ void parallel_steps(const topology::Tree& t, const Plan& plan, Steps124& out) {
           "separator rows go to its own buffer, added in serially before the separator\n"
           "columns are factored.  Step 2 likewise; Step 4 in reverse.",
           n, inside, t.nv - inside, tasks)),
-      "// " + ops_text(out.ops1, true), n, table, tasks + 1, join_ints(task_start), tasks, buffer, pragma, flag, n, n, flag);
-  out.step2 = fmt::format(
+      "// " + ops_text(ops, true), n, table, tasks + 1, join_ints(task_start), tasks, buffer, pragma, flag, n, n, flag);
+}
+
+std::string step2_text(const Parallel& par, const OpCount& ops) {
+  const int n = par.n;
+  const bool ldlt = par.ldlt;
+  const char* flag = par.flag;
+  const std::string& pragma = par.pragma;
+  return fmt::format(
       "// ---- Step 2: solve L z = Q (forward substitution), Remark 2, parallel. ----\n{}\n"
       "void step2_forward(const double* L, {}double* z) {{\n"
       "  double* const U = g_U;\n"
@@ -90,9 +122,15 @@ void parallel_steps(const topology::Tree& t, const Plan& plan, Steps124& out) {
       "  for (std::int32_t i = 0; i < {}; ++i) jr::apply_subtree_forward(kModel, kSubtrees[i], U + kSubtrees[i].buffer, z);\n"
       "  jr::forward_separator(kModel, kSubtrees, {}, L, {}, {}, z);\n"
       "}}",
-      "// " + ops_text(out.ops2, true), ldlt ? "" : "const double* Dinv, ", pragma, ldlt ? "nullptr" : "Dinv", flag, n, n,
+      "// " + ops_text(ops, true), ldlt ? "" : "const double* Dinv, ", pragma, ldlt ? "nullptr" : "Dinv", flag, n, n,
       ldlt ? "nullptr" : "Dinv", flag);
-  out.step4 = fmt::format(
+}
+
+std::string step4_text(const Parallel& par, const OpCount& ops) {
+  const int n = par.n;
+  const char* flag = par.flag;
+  const std::string& pragma = par.pragma;
+  return fmt::format(
       "// ---- Step 4: solve L^T qdd = z (back substitution), Remark 2, parallel. ----\n{}\n"
       "void step4_backward(const double* L, const double* Dinv, double* z) {{\n"
       "  jr::backward_separator(kModel, kSubtrees, {}, L, Dinv, {}, z);\n"
@@ -101,7 +139,17 @@ void parallel_steps(const topology::Tree& t, const Plan& plan, Steps124& out) {
       "    for (std::int32_t i = kTaskStart[w]; i < kTaskStart[w + 1]; ++i)\n"
       "      jr::backward_subtree(kModel, kSubtrees[i], L, Dinv, {}, z);\n"
       "}}",
-      "// " + ops_text(out.ops4, true), n, flag, pragma, flag);
+      "// " + ops_text(ops, true), n, flag, pragma, flag);
+}
+
+}  // namespace
+
+void parallel_steps(const topology::Tree& t, const Plan& plan, Steps124& out) {
+  const std::vector<long long> task_start = task_starts(plan.subtrees);
+  const Parallel par = parallel_of(plan, task_start);
+  out.step1 = step1_text(t, plan, par, task_start, out.ops1);
+  out.step2 = step2_text(par, out.ops2);
+  out.step4 = step4_text(par, out.ops4);
 }
 
 }  // namespace jrgen::emit
