@@ -183,6 +183,10 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
 
   Solver solver;
   solver.divide = options.divide;
+  if (plan.parallel_declined && options.threads >= 2)
+    solver.notes.push_back(fmt::format("--threads {}: the dof tree has no subtree to factor in parallel below its "
+                                       "separator (Corollary 3); Steps 1, 2 and 4 are serial",
+                                       options.threads));
   if (options.divide && !plan.unrolled)
     solver.notes.push_back("--divide: Steps 1, 2 and 4 run the runtime's loops (a model this large) and multiply by "
                            "reciprocal pivots");

@@ -48,7 +48,10 @@ Plan plan_solver(const topology::Tree& t, const Options& options) {
   if (tree_only && options.method == Method::kLLT) p.supernodes = topology::dense_supernodes(t, kMinDenseSupernode);
   const bool parallel = tree_only && (options.threads >= 2 || (options.threads == 0 && t.nv >= kMinParallelDofs));
   if (parallel) p.subtrees = topology::partition_subtrees(t, kParallelParts, std::max(16, t.nv / 20));
-  p.shape = parallel                          ? Shape::kParallel
+  // A tree whose dofs all fit in the separator (a short chain) leaves no
+  // subtree to factor in parallel: the serial shapes then.
+  p.parallel_declined = parallel && p.subtrees.empty();
+  p.shape = !p.subtrees.empty()               ? Shape::kParallel
             : !p.supernodes.empty()           ? Shape::kSupernodal
             : p.products <= unroll_limit()    ? Shape::kUnrolled
                                               : Shape::kTable;

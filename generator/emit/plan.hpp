@@ -32,6 +32,9 @@ struct Plan {
   std::vector<topology::Supernode> supernodes;  ///< non-empty: kSupernodal
   /// Corollary 3's subtrees below a separator (partition_subtrees); non-empty: kParallel.
   std::vector<topology::Subtree> subtrees;
+  /// --threads asked for the parallel shape, but partition_subtrees() left
+  /// every dof in the separator (a short chain): serial (a note says so).
+  bool parallel_declined = false;
   Shape shape = Shape::kUnrolled;
   bool unrolled = false;  ///< shape == kUnrolled
   /// Small unrolled models: a second Step 1 reading the user's dense M
