@@ -4,6 +4,7 @@
 
 #include "emit/format.hpp"
 #include "emit/kernel.hpp"
+#include "emit/steps/pivots.hpp"
 #include "emit/steps/step_text.hpp"
 #include "emit/steps/steps.hpp"
 
@@ -11,144 +12,147 @@ namespace jrgen::emit {
 
 namespace {
 
-// Step 1: M = L L^T (or L D L^T), column by column, eq. (25) and (26); the
-// sums run over the descendants of the column only (Lemma 2: every other
-// L[j, i] is zero), and only the rows of ancestors are computed.
+// Column j of Step 1: the sums run over the descendants of the column only
+// (Lemma 2: every other L[j, i] is zero), and only the rows of ancestors are
+// computed.
 //
 // `dense` names the source of M's entries: empty, M is already packed in L
 // (forward_dynamics); else the user's dense column-major M, read straight
 // into the statement that first needs each entry (solve_augmented: no
-// separate gather pass).  With `divide` (--divide) each entry is divided by
-// its pivot, as eq. (26) is written, and Dinv is written only with
-// `write_dinv` (for the runtime's table-driven Step 3, which reads it); otherwise Dinv[j]
-// holds the pivot itself, for the digits test (check_digits_M).
-Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc, Method method, bool divide,
-             bool write_dinv, const std::string& dense = "") {
+// separate gather pass).
+struct Column {
+  const topology::Tree& t;
+  const std::string& dense;
+  int j;
+  std::vector<int> anc;        ///< ancestors of j, nearest first: the rows computed
+  const std::vector<int>& dj;  ///< descendants of j: the columns summed over
+
   // The original value of packed entry (row, col): row an ancestor of col.
-  auto M = [&](int row, int col) {
+  std::string M(int row, int col) const {
     if (dense.empty()) return L(t, row, col);
     return fmt::format("{}[{}]", dense, t.dof_user[row] + static_cast<long long>(t.nv) * t.dof_user[col]);
-  };
+  }
   // Two neighbouring ancestor rows r = anc[p], r' = anc[p + 1] of column j
   // are stored next to each other in column j and in every column i of
   // F(j) (column i holds i's ancestors, nearest first, and those of j are a
   // suffix of them): their two statements of eq. (26) become one on a pair
   // of doubles (Kernel::update_pair, jrgen/simd.hpp).
-  auto pairable = [&](int r, int r2, int j, const std::vector<int>& dj) {
+  bool pairable(int r, int r2) const {
     if (t.packed(r2, j) != t.packed(r, j) + 1) return false;
     for (int i : dj)
       if (t.packed(r2, i) != t.packed(r, i) + 1) return false;
     return true;
-  };
-  auto pair = [&](int row, int col) { return fmt::format("jr::load2(L + {})", t.packed(row, col)); };
-  auto M_pair = [&](int r, int r2, int col) {
-    if (dense.empty()) return pair(r, col);
-    return fmt::format("jr::set2({}, {})", M(r, col), M(r2, col));
-  };
-  auto target = [&](int row, int col) { return fmt::format("L + {}", t.packed(row, col)); };
+  }
+  std::string pair(int row, int col) const { return fmt::format("jr::load2(L + {})", t.packed(row, col)); }
+  std::string M_pair(int r, int r2) const {
+    if (dense.empty()) return pair(r, j);
+    return fmt::format("jr::set2({}, {})", M(r, j), M(r2, j));
+  }
+};
+
+// The rows of eq. (26) below the diagonal: for anc[p] (and anc[p + 1] when
+// they pair up), with the scalar factor of descendant number n given by
+// factor[n], then `scale`.  An entry with nothing to subtract or scale
+// stays as it is.
+void column_rows(Kernel& k, Kernel::Unit& u, const Column& c, const std::vector<std::string>& factor,
+                 const Scale& scale) {
+  const topology::Tree& t = c.t;
+  for (std::size_t p = 0; p < c.anc.size();) {
+    const int r = c.anc[p];
+    if (c.dj.empty() && scale.empty() && c.dense.empty()) {
+      p += 1;
+    } else if (p + 1 < c.anc.size() && c.pairable(r, c.anc[p + 1])) {
+      std::vector<Term> terms;
+      for (std::size_t n = 0; n < c.dj.size(); ++n) terms.push_back({factor[n], c.pair(r, c.dj[n])});
+      k.update_pair(u, "  ", fmt::format("L + {}", t.packed(r, c.j)), c.M_pair(r, c.anc[p + 1]), terms, scale);
+      p += 2;
+    } else {
+      std::vector<Term> terms;
+      for (std::size_t n = 0; n < c.dj.size(); ++n) terms.push_back({factor[n], L(t, r, c.dj[n])});
+      k.update(u, "  ", L(t, r, c.j), c.M(r, c.j), terms, scale);
+      p += 1;
+    }
+  }
+}
+
+// L L^T: eq. (25), L[j,j]^2 = M[j,j] - sum_i L[j,i]^2, then eq. (26),
+// L[k,j] = (M[k,j] - sum_i L[j,i] L[k,i]) / L[j,j].  With `divide` each entry
+// is divided by its pivot, as eq. (26) is written, and Dinv is written only
+// with `write_dinv` (for the runtime's table-driven Step 3, which reads it);
+// otherwise Dinv[j] holds the pivot itself, for the digits test
+// (check_digits_M).
+void column_llt(Kernel& k, Kernel::Unit& u, const Column& c, bool divide, bool write_dinv) {
+  const topology::Tree& t = c.t;
+  const int j = c.j;
+  const std::string in = "  ";
+  std::vector<Term> sq;
+  std::vector<std::string> factor;
+  for (int i : c.dj) {
+    sq.push_back({L(t, j, i), L(t, j, i)});
+    factor.push_back(L(t, j, i));
+  }
+  k.update(u, in, "d", c.M(j, j), sq, "", "const double ", "sd");
+  u.lines.push_back(in + pivot_test(c.M(j, j), fmt::format("not_positive_definite({}, d)", j)));
+  // 1 / L[j,j] = sqrt(d) * (1 / d): the square root and the division run
+  // side by side, not one after the other, on the chain from this pivot to
+  // the next column (one more multiplication per column;
+  // docs/benchmarks.md, run 8: tree_d4_30 10% faster, talos 4%).
+  u.lines.push_back(in + "const double l = std::sqrt(d);");
+  u.lines.push_back(in + L(t, j, j) + " = l;");
+  u.statements += 3;
+  k.ops.sqrt += 1;
+  if (!divide || write_dinv) {
+    u.lines.push_back(in + fmt::format("Dinv[{}] = l * (1.0 / d);", j));
+    k.ops.div += 1;
+    k.ops.mul += 1;
+  } else {
+    u.lines.push_back(in + fmt::format("Dinv[{}] = d;  // the pivot itself, for check_digits_M", j));
+  }
+  ++u.statements;
+  column_rows(k, u, c, factor, divide ? Scale::divided_by("l") : Scale(fmt::format("Dinv[{}]", j)));
+}
+
+// L D L^T: w_i = L[j,i] D[i]; D[j] = M[j,j] - sum_i w_i L[j,i];
+// L[k,j] = (M[k,j] - sum_i w_i L[k,i]) * Dinv[j].
+//
+// --divide keeps W = L D instead (eq. 26 without the division), ldlt_pivot():
+//   l_i = W[j,i] / D[i];  D[j] = M[j,j] - sum_i W[j,i] l_i;
+//   W[k,j] = M[k,j] - sum_i W[k,i] l_i  (k an ancestor of j).
+// One division per entry of L and no products w_i (165 fewer on the HMMWV),
+// and column j's entries do not wait for its pivot.  Measured
+// (docs/benchmarks.md, run 9): with divisions, legged30 4.5% faster than the
+// products w_i; with reciprocals 10% slower (each entry is stored twice), so
+// the default keeps the products.
+void column_ldlt(Kernel& k, Kernel::Unit& u, const Column& c, bool divide, bool write_dinv) {
+  const topology::Tree& t = c.t;
+  const int j = c.j;
+  LdltPivot pivot;
+  for (int i : c.dj) {
+    pivot.entries.push_back(L(t, j, i));
+    pivot.pivots.push_back(L(t, i, i));
+  }
+  pivot.base = c.M(j, j);
+  pivot.diag = L(t, j, j);
+  pivot.fail = fmt::format("not_positive_definite({}, d)", j);
+  pivot.inverse = fmt::format("Dinv[{}]", j);
+  pivot.reciprocal = write_dinv;
+  pivot.check = "check_digits_M";
+  const std::vector<std::string> factor = ldlt_pivot(k, u, pivot, divide);
+  column_rows(k, u, c, factor, divide ? Scale() : Scale(fmt::format("Dinv[{}]", j)));
+}
+
+// Step 1: M = L L^T (or L D L^T), column by column, eq. (25) and (26).
+Kernel step1(const topology::Tree& t, const std::vector<std::vector<int>>& desc, Method method, bool divide,
+             bool write_dinv, const std::string& dense = "") {
   Kernel k;
   for (int j = 0; j < t.nv; ++j) {
     Kernel::Unit& u = k.unit();
-    const std::vector<int> anc = t.ancestors(j);
-    const std::vector<int>& dj = desc[j];
-    // Rows of eq. (26) for anc[p] (and anc[p + 1] when they pair up), with
-    // the scalar factor of descendant number n given by `factor(n)`, then
-    // `scale`.  An entry with nothing to subtract or scale stays as it is.
-    auto rows = [&](const auto& factor, const Scale& scale) {
-      for (std::size_t p = 0; p < anc.size();) {
-        const int r = anc[p];
-        if (dj.empty() && scale.empty() && dense.empty()) {
-          p += 1;
-        } else if (p + 1 < anc.size() && pairable(r, anc[p + 1], j, dj)) {
-          std::vector<Term> terms;
-          for (std::size_t n = 0; n < dj.size(); ++n) terms.push_back({factor(n), pair(r, dj[n])});
-          k.update_pair(u, "  ", target(r, j), M_pair(r, anc[p + 1], j), terms, scale);
-          p += 2;
-        } else {
-          std::vector<Term> terms;
-          for (std::size_t n = 0; n < dj.size(); ++n) terms.push_back({factor(n), L(t, r, dj[n])});
-          k.update(u, "  ", L(t, r, j), M(r, j), terms, scale);
-          p += 1;
-        }
-      }
-    };
-    u.lines.push_back(fmt::format("// column {}: {}; {} descendant(s), {} ancestor row(s)", j,
-                                  dof_label(t, j), dj.size(), anc.size()));
+    const Column c{t, dense, j, t.ancestors(j), desc[j]};
+    u.lines.push_back(fmt::format("// column {}: {}; {} descendant(s), {} ancestor row(s)", j, dof_label(t, j),
+                                  c.dj.size(), c.anc.size()));
     u.lines.push_back("{");
-    const std::string in = "  ";
-    const std::string diag = L(t, j, j);
-    if (method == Method::kLLT) {
-      // eq. (25): L[j,j]^2 = M[j,j] - sum_i L[j,i]^2
-      std::vector<Term> sq;
-      for (int i : dj) sq.push_back({L(t, j, i), L(t, j, i)});
-      k.update(u, in, "d", M(j, j), sq, "", "const double ", "sd");
-      u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return not_positive_definite({}, d);",
-                                         M(j, j), j));
-      // 1 / L[j,j] = sqrt(d) * (1 / d): the square root and the division
-      // run side by side, not one after the other, on the chain from this
-      // pivot to the next column (one more multiplication per column;
-      // docs/benchmarks.md, run 8: tree_d4_30 10% faster, talos 4%).
-      u.lines.push_back(in + "const double l = std::sqrt(d);");
-      u.lines.push_back(in + diag + " = l;");
-      u.statements += 3;
-      k.ops.sqrt += 1;
-      if (!divide || write_dinv) {
-        u.lines.push_back(in + fmt::format("Dinv[{}] = l * (1.0 / d);", j));
-        k.ops.div += 1;
-        k.ops.mul += 1;
-      } else {
-        u.lines.push_back(in + fmt::format("Dinv[{}] = d;  // the pivot itself, for check_digits_M", j));
-      }
-      ++u.statements;
-      // eq. (26): L[k,j] = (M[k,j] - sum_i L[j,i] L[k,i]) / L[j,j]
-      rows([&](std::size_t n) { return L(t, j, dj[n]); },
-           divide ? Scale::divided_by("l") : Scale(fmt::format("Dinv[{}]", j)));
-    } else {
-      // L D L^T: w_i = L[j,i] D[i]; D[j] = M[j,j] - sum_i w_i L[j,i];
-      // L[k,j] = (M[k,j] - sum_i w_i L[k,i]) * Dinv[j].
-      //
-      // --divide keeps W = L D instead (eq. 26 without the division): an
-      // entry of column i stays unscaled, W[k,i], until column k is
-      // reached, which needs L[k,i] = W[k,i] / D[i] (D[i] is known by then)
-      // as well as W[k,i] itself:
-      //   l_i = W[j,i] / D[i];  D[j] = M[j,j] - sum_i W[j,i] l_i;
-      //   W[k,j] = M[k,j] - sum_i W[k,i] l_i  (k an ancestor of j).
-      // One division per entry of L and no products w_i (165 fewer on the
-      // HMMWV), and column j's entries do not wait for its pivot.  Measured
-      // (docs/benchmarks.md, run 9): with divisions, legged30 4.5% faster
-      // than the products w_i; with reciprocals 10% slower (each entry is
-      // stored twice), so the default keeps the products.
-      const bool unscaled = divide;
-      std::vector<Term> dterms;
-      for (std::size_t n = 0; n < dj.size(); ++n) {
-        const int i = dj[n];
-        const std::string name = fmt::format("{}{}", unscaled ? "l" : "w", n);
-        u.lines.push_back(in + fmt::format("const double {} = {} {} {};", name, L(t, j, i), unscaled ? "/" : "*",
-                                           L(t, i, i)));
-        ++u.statements;
-        (unscaled ? k.ops.div : k.ops.mul) += 1;
-        dterms.push_back(unscaled ? Term{L(t, j, i), name} : Term{name, L(t, j, i)});
-      }
-      k.update(u, in, "d", M(j, j), dterms, "", "const double ", "sd");
-      u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return not_positive_definite({}, d);",
-                                         M(j, j), j));
-      u.lines.push_back(in + diag + " = d;");
-      u.statements += 2;
-      if (write_dinv) {
-        u.lines.push_back(in + fmt::format("Dinv[{}] = 1.0 / d;", j));
-        k.ops.div += 1;
-      } else {
-        u.lines.push_back(in + fmt::format("Dinv[{}] = d;  // the pivot itself, for check_digits_M", j));
-      }
-      ++u.statements;
-      if (unscaled)
-        for (std::size_t n = 0; n < dj.size(); ++n) {
-          u.lines.push_back(in + fmt::format("{} = l{};", L(t, j, dj[n]), n));
-          ++u.statements;
-        }
-      rows([&](std::size_t n) { return fmt::format("{}{}", unscaled ? "l" : "w", n); },
-           unscaled ? Scale() : Scale(fmt::format("Dinv[{}]", j)));
-    }
+    if (method == Method::kLLT) column_llt(k, u, c, divide, write_dinv);
+    else column_ldlt(k, u, c, divide, write_dinv);
     u.lines.push_back("}");
   }
   return k;

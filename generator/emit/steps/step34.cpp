@@ -10,6 +10,7 @@
 #include <map>
 
 #include "emit/format.hpp"
+#include "emit/steps/pivots.hpp"
 #include "emit/steps/step3.hpp"
 #include "emit/steps/step_text.hpp"
 
@@ -80,8 +81,7 @@ void column_llt(const Step3Layout& lay, int j, Kernel& k, Kernel::Unit& u) {
   std::vector<Term> sq;
   for (int i : sp.row_list[j]) sq.push_back({lay.W(j, i), lay.W(j, i)});
   k.update(u, in, "d", diag, sq, "", "const double ", "sd");
-  u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return constraints_singular({}, d);", diag,
-                                     sp.order[j]));
+  u.lines.push_back(in + pivot_test(diag, fmt::format("constraints_singular({}, d)", sp.order[j])));
   u.lines.push_back(in + diag + " = std::sqrt(d);");
   u.statements += 2;
   k.ops.sqrt += 1;
@@ -99,47 +99,32 @@ void column_llt(const Step3Layout& lay, int j, Kernel& k, Kernel::Unit& u) {
   }
 }
 
-// Column j of L_W D_W L_W^T as Step 1's: products w_i = W[j,i] D[i], or with
-// --divide an entry W[r,i] kept unscaled (L_W D_W) until column r, which
-// divides it by its pivot and needs both forms.
+// Column j of L_W D_W L_W^T as Step 1's (ldlt_pivot): products
+// w_i = W[j,i] D[i], or with --divide an entry W[r,i] kept unscaled
+// (L_W D_W) until column r, which divides it by its pivot and needs both
+// forms.
 void column_ldlt(const Step3Layout& lay, int j, Kernel& k, Kernel::Unit& u) {
   const SchurPattern& sp = lay.sp;
-  const std::string in = "  ";
-  const std::string diag = lay.W(j, j);
   const bool unscaled = lay.divide;
-  std::vector<Term> dterms;
-  std::map<int, std::string> w;
+  LdltPivot pivot;
   for (int i : sp.row_list[j]) {
-    const std::string name = fmt::format("{}{}", unscaled ? "l" : "w", w.size());
-    u.lines.push_back(
-        in + fmt::format("const double {} = {} {} {};", name, lay.W(j, i), unscaled ? "/" : "*", lay.W(i, i)));
-    ++u.statements;
-    (unscaled ? k.ops.div : k.ops.mul) += 1;
-    w[i] = name;
-    dterms.push_back(unscaled ? Term{lay.W(j, i), name} : Term{name, lay.W(j, i)});
+    pivot.entries.push_back(lay.W(j, i));
+    pivot.pivots.push_back(lay.W(i, i));
   }
-  k.update(u, in, "d", diag, dterms, "", "const double ", "sd");
-  u.lines.push_back(in + fmt::format("if (!(d > kPivotTolerance * {})) return constraints_singular({}, d);", diag,
-                                     sp.order[j]));
-  u.lines.push_back(in + diag + " = d;");
-  u.statements += 2;
-  if (!lay.divide) {
-    u.lines.push_back(in + fmt::format("Winv[{}] = 1.0 / d;", j));
-    k.ops.div += 1;
-  } else {
-    u.lines.push_back(in + fmt::format("Winv[{}] = d;  // the pivot itself, for check_digits_W", j));
-  }
-  ++u.statements;
-  if (unscaled)
-    for (const auto& [i, name] : w) {
-      u.lines.push_back(in + fmt::format("{} = {};", lay.W(j, i), name));
-      ++u.statements;
-    }
+  pivot.base = pivot.diag = lay.W(j, j);
+  pivot.fail = fmt::format("constraints_singular({}, d)", sp.order[j]);
+  pivot.inverse = fmt::format("Winv[{}]", j);
+  pivot.reciprocal = !lay.divide;
+  pivot.check = "check_digits_W";
+  const std::vector<std::string> names = ldlt_pivot(k, u, pivot, unscaled);
+  std::map<int, std::string> w;  // left column -> its factor
+  for (std::size_t n = 0; n < names.size(); ++n) w[sp.row_list[j][n]] = names[n];
   for (int r : sp.pattern[j]) {
     std::vector<Term> terms;
-    for (int i : common_left(sp, j, r)) terms.push_back(unscaled ? Term{lay.W(r, i), w[i]} : Term{w[i], lay.W(r, i)});
+    for (int i : common_left(sp, j, r))
+      terms.push_back(unscaled ? Term{lay.W(r, i), w[i]} : Term{w[i], lay.W(r, i)});
     if (unscaled && terms.empty()) continue;  // stays unscaled until column r
-    k.update(u, in, lay.W(r, j), lay.W(r, j), terms, unscaled ? Scale() : lay.pivot_scale(j));
+    k.update(u, "  ", lay.W(r, j), lay.W(r, j), terms, unscaled ? Scale() : lay.pivot_scale(j));
   }
 }
 
