@@ -117,16 +117,12 @@ std::string constraint_values(const LoopCode& loops, const Plan& plan, int nc, T
 // "JRGEN_STEP " before each definition of a step function: the lines of
 // `code` that start (column 0) with "int step" or "void step".
 std::string mark_step_definitions(const std::string& code) {
+  const std::vector<std::string> lines = split_lines(code);
   std::string out;
-  std::size_t pos = 0;
-  while (pos < code.size()) {
-    std::size_t end = code.find('\n', pos);
-    if (end == std::string::npos) end = code.size();
-    const std::string_view line(code.data() + pos, end - pos);
-    if (line.rfind("int step", 0) == 0 || line.rfind("void step", 0) == 0) out += "JRGEN_STEP ";
-    out.append(line);
-    if (end < code.size()) out += '\n';
-    pos = end + 1;
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    if (i > 0) out += '\n';
+    if (lines[i].rfind("int step", 0) == 0 || lines[i].rfind("void step", 0) == 0) out += "JRGEN_STEP ";
+    out += lines[i];
   }
   return out;
 }

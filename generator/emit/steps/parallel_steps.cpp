@@ -65,9 +65,7 @@ std::string step1_text(const topology::Tree& t, const Plan& plan, const Parallel
   }
   table.pop_back();
   const int n = par.n, tasks = par.tasks;
-  const bool ldlt = par.ldlt;
   const char* flag = par.flag;
-  const std::string& pragma = par.pragma;
   return fmt::format(
       "// ---- Step 1: factor {} in place (packed), eq. (25)-(26), parallel. ----\n"
       "{}\n{}\n"
@@ -95,7 +93,7 @@ std::string step1_text(const topology::Tree& t, const Plan& plan, const Parallel
       "  const std::int32_t j = jr::factor_separator(kModel, kSubtrees, {}, L, Dinv, {}, kPivotTolerance, &pivot);\n"
       "  return j < 0 ? 0 : not_positive_definite(j, pivot);\n"
       "}}",
-      ldlt ? "M = L D L^T" : "M = L L^T",
+      par.ldlt ? "M = L D L^T" : "M = L L^T",
       as_comment(fmt::format(
           "Corollary 3 (Section 5): columns of L in disjoint subtrees are independent.\n"
           "{} subtrees ({} dofs) below a separator of {} dofs, in {} work items run\n"
@@ -103,14 +101,11 @@ std::string step1_text(const topology::Tree& t, const Plan& plan, const Parallel
           "separator rows go to its own buffer, added in serially before the separator\n"
           "columns are factored.  Step 2 likewise; Step 4 in reverse.",
           n, inside, t.nv - inside, tasks)),
-      "// " + ops_text(ops, true), n, table, tasks + 1, join_ints(task_start), tasks, buffer, pragma, flag, n, n, flag);
+      "// " + ops_text(ops, true), n, table, tasks + 1, join_ints(task_start), tasks, buffer, par.pragma, flag, n, n, flag);
 }
 
 std::string step2_text(const Parallel& par, const OpCount& ops) {
-  const int n = par.n;
   const bool ldlt = par.ldlt;
-  const char* flag = par.flag;
-  const std::string& pragma = par.pragma;
   return fmt::format(
       "// ---- Step 2: solve L z = Q (forward substitution), Remark 2, parallel. ----\n{}\n"
       "void step2_forward(const double* L, {}double* z) {{\n"
@@ -122,14 +117,11 @@ std::string step2_text(const Parallel& par, const OpCount& ops) {
       "  for (std::int32_t i = 0; i < {}; ++i) jr::apply_subtree_forward(kModel, kSubtrees[i], U + kSubtrees[i].buffer, z);\n"
       "  jr::forward_separator(kModel, kSubtrees, {}, L, {}, {}, z);\n"
       "}}",
-      "// " + ops_text(ops, true), ldlt ? "" : "const double* Dinv, ", pragma, ldlt ? "nullptr" : "Dinv", flag, n, n,
-      ldlt ? "nullptr" : "Dinv", flag);
+      "// " + ops_text(ops, true), ldlt ? "" : "const double* Dinv, ", par.pragma, ldlt ? "nullptr" : "Dinv", par.flag,
+      par.n, par.n, ldlt ? "nullptr" : "Dinv", par.flag);
 }
 
 std::string step4_text(const Parallel& par, const OpCount& ops) {
-  const int n = par.n;
-  const char* flag = par.flag;
-  const std::string& pragma = par.pragma;
   return fmt::format(
       "// ---- Step 4: solve L^T qdd = z (back substitution), Remark 2, parallel. ----\n{}\n"
       "void step4_backward(const double* L, const double* Dinv, double* z) {{\n"
@@ -139,7 +131,7 @@ std::string step4_text(const Parallel& par, const OpCount& ops) {
       "    for (std::int32_t i = kTaskStart[w]; i < kTaskStart[w + 1]; ++i)\n"
       "      jr::backward_subtree(kModel, kSubtrees[i], L, Dinv, {}, z);\n"
       "}}",
-      "// " + ops_text(ops, true), n, flag, pragma, flag);
+      "// " + ops_text(ops, true), par.n, par.flag, par.pragma, par.flag);
 }
 
 }  // namespace
