@@ -12,9 +12,12 @@
 
 namespace jrgen::emit {
 
-Step3Tables step3_tables(const topology::Tree& t, const std::vector<Row>& rows, const SchurPattern& sp) {
-  Step3Tables tab;
-  std::vector<int> ancestors_on_list;  // per cut_dofs entry
+namespace {
+
+// Lemma 3's dof lists per cut, each dof's parent on its list, and the
+// number of its ancestors on the list (per kCutDofs entry, returned).
+std::vector<int> cut_lists(const topology::Tree& t, Step3Tables& tab) {
+  std::vector<int> ancestors_on_list;
   tab.cut_dof_start.push_back(0);
   for (const topology::Cut& cut : t.cuts) {
     const int first = static_cast<int>(tab.cut_dofs.size());
@@ -32,6 +35,12 @@ Step3Tables step3_tables(const topology::Tree& t, const std::vector<Row>& rows, 
     tab.cut_dof_start.push_back(static_cast<int>(tab.cut_dofs.size()));
     tab.cut_num_distinct.push_back(cut.num_distinct);
   }
+  return ancestors_on_list;
+}
+
+// The kept rows' cuts and T starts; Steps 3.1, 3.2 and 3.5 counted.
+void row_lists(const topology::Tree& t, const std::vector<Row>& rows, const std::vector<int>& ancestors_on_list,
+               Step3Tables& tab) {
   for (const Row& row : rows) {
     tab.row_cut.push_back(row.cut);
     tab.row_t_start.push_back(row.t_start);
@@ -48,21 +57,27 @@ Step3Tables step3_tables(const topology::Tree& t, const std::vector<Row>& rows, 
     tab.ops35.add += n;
     tab.ops35.mul += n;
   }
+}
+
+// The dofs the cuts of kept rows a and b share.
+long long common_dofs(const topology::Cut& a, const topology::Cut& b) {
+  long long n = 0;
+  for (std::size_t x = 0, y = 0; x < a.dofs.size() && y < b.dofs.size();) {
+    if (a.dofs[x] < b.dofs[y]) ++x;
+    else if (b.dofs[y] < a.dofs[x]) ++y;
+    else ++n, ++x, ++y;
+  }
+  return n;
+}
+
+// T^T T's factor pattern by columns (elimination positions); Steps 3.3 and
+// 3.4 counted.
+void w_pattern(const topology::Tree& t, const std::vector<Row>& rows, const SchurPattern& sp, Step3Tables& tab) {
   for (int j = 0; j < sp.m; ++j) {
     tab.W_col_start.push_back(static_cast<int>(tab.W_row.size()));
     tab.W_row.push_back(j);
     tab.W_structural.push_back(1);
-    auto common = [&](int r) {
-      const topology::Cut& a = t.cuts[rows[sp.order[r]].cut];
-      const topology::Cut& b = t.cuts[rows[sp.order[j]].cut];
-      long long n = 0;
-      for (std::size_t x = 0, y = 0; x < a.dofs.size() && y < b.dofs.size();) {
-        if (a.dofs[x] < b.dofs[y]) ++x;
-        else if (b.dofs[y] < a.dofs[x]) ++y;
-        else ++n, ++x, ++y;
-      }
-      return n;
-    };
+    auto common = [&](int r) { return common_dofs(t.cuts[rows[sp.order[r]].cut], t.cuts[rows[sp.order[j]].cut]); };
     const long long nd = common(j);
     tab.products += nd;
     tab.ops33.mul += nd;
@@ -84,25 +99,23 @@ Step3Tables step3_tables(const topology::Tree& t, const std::vector<Row>& rows, 
     tab.ops34.div += 1;
   }
   tab.W_col_start.push_back(static_cast<int>(tab.W_row.size()));
+}
+
+}  // namespace
+
+Step3Tables step3_tables(const topology::Tree& t, const std::vector<Row>& rows, const SchurPattern& sp) {
+  Step3Tables tab;
+  const std::vector<int> ancestors_on_list = cut_lists(t, tab);
+  row_lists(t, rows, ancestors_on_list, tab);
+  w_pattern(t, rows, sp, tab);
   return tab;
 }
 
-// Steps 3.1-3.5 as calls of the runtime's loops (jrgen/constraint_solve.hpp)
-// over tables, for models whose straight-line Step 3 would be too large.
-void table_driven_step3(const topology::Tree& t, const SchurPattern& sp, const Step3Tables& tab, bool ldlt,
-                        const std::string& name_space, LoopCode& out) {
-  const int m = sp.m;
-  OpCount o31 = tab.ops31, o32 = tab.ops32, o34 = tab.ops34;
-  if (!ldlt) {
-    o31.mul += static_cast<long long>(tab.cut_dofs.size());  // lower bound: one Dinv per entry
-    o34.sqrt += m;
-  } else {
-    o32.mul += o32.mul;  // V = D^-1 U
-  }
-  // The runtime header is included at file scope: leave the solver's
-  // namespaces for it (the template includes jrgen/runtime.hpp only).
-  std::string s = include_at_file_scope(name_space, "#include <jrgen/constraint_solve.hpp>  // table-driven Step 3");
-  s += out.tables;
+namespace {
+
+// The tables of jr::ConstraintSolveModel.
+std::string solve_model_tables(const topology::Tree& t, const SchurPattern& sp, const Step3Tables& tab) {
+  std::string s;
   s += fmt::format(
       "\n\n// ---- Step 3 tables (jr::ConstraintSolveModel): Lemma 3 dof lists per cut, ----\n"
       "// kept rows, and T^T T's factor pattern in the elimination order ({}; {} entries).\n",
@@ -124,9 +137,14 @@ void table_driven_step3(const topology::Tree& t, const SchurPattern& sp, const S
   s += fmt::format(
       "constexpr jr::ConstraintSolveModel kConstraintSolve = {{{}, {}, kCutDofStart, kCutDofs, kCutParentIndex,\n"
       "    kCutNumDistinct, kRowCut, kRowTStart, kOrder, kWColStart, kWRow, kWStructural}};",
-      t.cuts.size(), m);
-  out.tables = s;
+      t.cuts.size(), sp.m);
+  return s;
+}
 
+// The functions of Steps 3.1-3.5, each a call of the runtime's loop.
+std::string step_functions(const SchurPattern& sp, const Step3Tables& tab, bool ldlt, const OpCount& o31,
+                           const OpCount& o32, const OpCount& o34) {
+  const int m = sp.m;
   const char* flag = ldlt ? "true" : "false";
   std::string f;
   f += row_failure_functions();
@@ -173,7 +191,27 @@ void table_driven_step3(const topology::Tree& t, const SchurPattern& sp, const S
       "void step35_update(const double* T, const double* zm, double* z) {{\n"
       "  jr::constraint_update(kConstraintSolve, T, zm, z);\n}}",
       U, ops_text(tab.ops35));
-  out.step3 = f;
+  return f;
+}
+
+}  // namespace
+
+// Steps 3.1-3.5 as calls of the runtime's loops (jrgen/constraint_solve.hpp)
+// over tables, for models whose straight-line Step 3 would be too large.
+void table_driven_step3(const topology::Tree& t, const SchurPattern& sp, const Step3Tables& tab, bool ldlt,
+                        const std::string& name_space, LoopCode& out) {
+  OpCount o31 = tab.ops31, o32 = tab.ops32, o34 = tab.ops34;
+  if (!ldlt) {
+    o31.mul += static_cast<long long>(tab.cut_dofs.size());  // lower bound: one Dinv per entry
+    o34.sqrt += sp.m;
+  } else {
+    o32.mul += o32.mul;  // V = D^-1 U
+  }
+  // The runtime header is included at file scope: leave the solver's
+  // namespaces for it (the template includes jrgen/runtime.hpp only).
+  out.tables = include_at_file_scope(name_space, "#include <jrgen/constraint_solve.hpp>  // table-driven Step 3") +
+               out.tables + solve_model_tables(t, sp, tab);
+  out.step3 = step_functions(sp, tab, ldlt, o31, o32, o34);
   out.call_args["step31_args"] = ldlt ? "g_L, g_T" : "g_L, g_Dinv, g_T";
   out.call_args["step32_args"] = ldlt ? "g_T, g_Dinv, g_z, g_gamma, g_V, g_zm" : "g_T, g_z, g_gamma, g_zm";
   out.call_args["step33_args"] = ldlt ? "g_T, g_V, g_W" : "g_T, g_W";
