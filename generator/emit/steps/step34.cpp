@@ -46,22 +46,22 @@ std::string dense_text(const Step3Layout& lay, const OpCount& factor, const OpCo
     return lay.square_W ? fmt::format("jr::schur_square_{}_fixed<{}>(W, Winv, ", kernel, m)
                         : fmt::format("jr::schur_dense_{}(W, Winv, {}, ", kernel, m);
   };
-  return fmt::format(
-      "// ---- Step 3.4 (a): factor W = {0} in place (dense, m = {1}: the runtime's loops), ----\n"
-      "// with the forward substitution of z_m (into g_zw, elimination order) in the same passes.\n"
-      "// {2}\n"
-      "int step34_factor(double* __restrict W, double* __restrict Winv) {{\n"
-      "  double pivot = 0.0;\n"
-      "  const std::int32_t position = {5}kSchurOrder, {3}, kPivotTolerance, &pivot, g_zw, g_zm);\n"
-      "  return position < 0 ? 0 : constraints_singular(kSchurOrder[position], pivot);\n"
-      "}}\n\n"
-      "// ---- Step 3.4 (b): backward substitution, lambda into z_m. ----\n"
-      "// {4}\n"
-      "void step34_solve(const double* __restrict W, const double* __restrict Winv, double* __restrict zm) {{\n"
-      "  {6}kSchurOrder, {3}, g_zw, zm);\n"
-      "}}",
-      lay.ldlt ? "L_W D_W L_W^T" : "L_W L_W^T", m, ops_text(factor, true), lay.ldlt ? "true" : "false",
-      ops_text(solve), call("factor_forward"), call("backward"));
+  const char* flag = lay.ldlt ? "true" : "false";
+  return call_function(fmt::format("---- Step 3.4 (a): factor W = {} in place (dense, m = {}: the runtime's loops), ----\n"
+                                   "with the forward substitution of z_m (into g_zw, elimination order) in the same "
+                                   "passes.\n{}",
+                                   lay.ldlt ? "L_W D_W L_W^T" : "L_W L_W^T", m, ops_text(factor, true)),
+                       "int step34_factor(double* __restrict W, double* __restrict Winv)",
+                       {"double pivot = 0.0;",
+                        fmt::format("const std::int32_t position = {}kSchurOrder, {}, kPivotTolerance, &pivot, g_zw, "
+                                    "g_zm);",
+                                    call("factor_forward"), flag),
+                        "return position < 0 ? 0 : constraints_singular(kSchurOrder[position], pivot);"}) +
+         "\n\n" +
+         call_function("---- Step 3.4 (b): backward substitution, lambda into z_m. ----\n" + ops_text(solve),
+                       "void step34_solve(const double* __restrict W, const double* __restrict Winv, double* "
+                       "__restrict zm)",
+                       {fmt::format("{}kSchurOrder, {}, g_zw, zm);", call("backward"), flag)});
 }
 
 // The rows of column j's factor that share a column left of the diagonal

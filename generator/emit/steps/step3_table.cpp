@@ -144,54 +144,52 @@ std::string solve_model_tables(const topology::Tree& t, const SchurPattern& sp, 
 // The functions of Steps 3.1-3.5, each a call of the runtime's loop.
 std::string step_functions(const SchurPattern& sp, const Step3Tables& tab, bool ldlt, const OpCount& o31,
                            const OpCount& o32, const OpCount& o34) {
-  const int m = sp.m;
   const char* flag = ldlt ? "true" : "false";
-  std::string f;
-  f += row_failure_functions();
-  f += fmt::format(
-      "// Step 3 is table-driven: unrolled, it would hold {} products (more than {}),\n"
-      "// too large to compile quickly; the runtime's loops do the same arithmetic.\n\n",
-      tab.products, step3_unroll_limit());
-  const std::string U = ldlt ? "U" : "T";
-  f += fmt::format(
-      "// ---- Step 3.1: solve L {} = Phiq^T in place (T holds the packed Phiq on entry). ----\n"
-      "// Lemma 3: only the dofs on the paths of each cut's bodies.  {}\n"
-      "void step31_solve_T(const double* L, {}double* T) {{\n"
-      "  jr::constraint_solve_T(kModel, kConstraintSolve, L, {}, {}, T);\n}}\n\n",
-      U, ops_text(o31), ldlt ? "" : "const double* Dinv, ", ldlt ? "nullptr" : "Dinv", flag);
-  f += fmt::format(
-      "// ---- Step 3.2: z_m = {} ----\n// {}\n"
-      "void step32_rhs(const double* T, {}const double* z, const double* gamma, {}double* zm) {{\n"
-      "  jr::constraint_rhs(kConstraintSolve, T, {}, z, gamma, {}, {}, zm);\n}}\n\n",
-      ldlt ? "U^T D^-1 y - gamma, with V = D^-1 U kept for Step 3.3." : "T^T z_n - gamma.", ops_text(o32),
-      ldlt ? "const double* Dinv, " : "", ldlt ? "double* V, " : "", ldlt ? "Dinv" : "nullptr", flag,
-      ldlt ? "V" : "nullptr");
-  f += fmt::format(
-      "// ---- Step 3.3: W = {} (m = {}), packed by columns in the elimination order; ----\n"
-      "// only entries whose rows' cuts share a dof; fill of Step 3.4 set to 0.\n"
-      "// {}\n"
-      "void step33_TtT(const double* T, {}double* W) {{\n"
-      "  jr::constraint_schur(kConstraintSolve, {}, T, W);\n}}\n\n",
-      ldlt ? "U^T D^-1 U = V^T U" : "T^T T", m, ops_text(tab.ops33), ldlt ? "const double* V, " : "",
-      ldlt ? "V" : "T");
-  f += fmt::format(
-      "// ---- Step 3.4: factor W = {0} in place (fill included) and solve W lambda = z_m. ----\n"
-      "// {1}\n"
-      "int step34_factor(double* W, double* Winv) {{\n"
-      "  double pivot = 0.0;\n"
-      "  const std::int32_t row = jr::constraint_factor(kConstraintSolve, W, Winv, {2}, kPivotTolerance, &pivot);\n"
-      "  return row < 0 ? 0 : constraints_singular(row, pivot);\n}}\n\n"
-      "void step34_solve(const double* W, const double* Winv, double* zm) {{\n"
-      "  jr::constraint_solve_lambda(kConstraintSolve, W, Winv, {2}, zm);\n}}\n\n",
-      ldlt ? "L_W D_W L_W^T" : "L_W L_W^T", "Ops (factor and solve):" + ops_text(o34, true).substr(4), flag);
-  f += check_digits_W(true, ldlt ? 1 : 2, "kOrder") + "\n\n";
-  f += fmt::format(
-      "// ---- Step 3.5: y_n = {} lambda, subtracted from z_n in place. ----\n"
-      "// {}\n"
-      "void step35_update(const double* T, const double* zm, double* z) {{\n"
-      "  jr::constraint_update(kConstraintSolve, T, zm, z);\n}}",
-      U, ops_text(tab.ops35));
-  return f;
+  const char* U = ldlt ? "U" : "T";
+  const char* Dinv = ldlt ? "nullptr" : "Dinv";
+  const std::string step31 = call_function(
+      fmt::format("---- Step 3.1: solve L {} = Phiq^T in place (T holds the packed Phiq on entry). ----\n"
+                  "Lemma 3: only the dofs on the paths of each cut's bodies.  {}",
+                  U, ops_text(o31)),
+      fmt::format("void step31_solve_T(const double* L, {}double* T)", ldlt ? "" : "const double* Dinv, "),
+      {fmt::format("jr::constraint_solve_T(kModel, kConstraintSolve, L, {}, {}, T);", Dinv, flag)});
+  const std::string step32 = call_function(
+      fmt::format("---- Step 3.2: z_m = {} ----\n{}",
+                  ldlt ? "U^T D^-1 y - gamma, with V = D^-1 U kept for Step 3.3." : "T^T z_n - gamma.", ops_text(o32)),
+      fmt::format("void step32_rhs(const double* T, {}const double* z, const double* gamma, {}double* zm)",
+                  ldlt ? "const double* Dinv, " : "", ldlt ? "double* V, " : ""),
+      {fmt::format("jr::constraint_rhs(kConstraintSolve, T, {}, z, gamma, {}, {}, zm);", ldlt ? "Dinv" : "nullptr",
+                   flag, ldlt ? "V" : "nullptr")});
+  const std::string step33 = call_function(
+      fmt::format("---- Step 3.3: W = {} (m = {}), packed by columns in the elimination order; ----\n"
+                  "only entries whose rows' cuts share a dof; fill of Step 3.4 set to 0.\n{}",
+                  ldlt ? "U^T D^-1 U = V^T U" : "T^T T", sp.m, ops_text(tab.ops33)),
+      fmt::format("void step33_TtT(const double* T, {}double* W)", ldlt ? "const double* V, " : ""),
+      {fmt::format("jr::constraint_schur(kConstraintSolve, {}, T, W);", ldlt ? "V" : "T")});
+  const std::string step34 =
+      call_function(fmt::format("---- Step 3.4: factor W = {} in place (fill included) and solve W lambda = z_m. ----\n"
+                                "Ops (factor and solve):{}",
+                                ldlt ? "L_W D_W L_W^T" : "L_W L_W^T", ops_text(o34, true).substr(4)),
+                    "int step34_factor(double* W, double* Winv)",
+                    {"double pivot = 0.0;",
+                     fmt::format("const std::int32_t row = jr::constraint_factor(kConstraintSolve, W, Winv, {}, "
+                                 "kPivotTolerance, &pivot);",
+                                 flag),
+                     "return row < 0 ? 0 : constraints_singular(row, pivot);"}) +
+      "\n\n" +
+      call_function("", "void step34_solve(const double* W, const double* Winv, double* zm)",
+                    {fmt::format("jr::constraint_solve_lambda(kConstraintSolve, W, Winv, {}, zm);", flag)});
+  const std::string step35 =
+      call_function(fmt::format("---- Step 3.5: y_n = {} lambda, subtracted from z_n in place. ----\n{}", U,
+                                ops_text(tab.ops35)),
+                    "void step35_update(const double* T, const double* zm, double* z)",
+                    {"jr::constraint_update(kConstraintSolve, T, zm, z);"});
+  return row_failure_functions() +
+         fmt::format("// Step 3 is table-driven: unrolled, it would hold {} products (more than {}),\n"
+                     "// too large to compile quickly; the runtime's loops do the same arithmetic.\n\n",
+                     tab.products, step3_unroll_limit()) +
+         step31 + "\n\n" + step32 + "\n\n" + step33 + "\n\n" + step34 + "\n\n" +
+         check_digits_W(true, ldlt ? 1 : 2, "kOrder") + "\n\n" + step35;
 }
 
 }  // namespace

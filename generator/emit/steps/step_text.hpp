@@ -6,7 +6,9 @@
 #include <fmt/format.h>
 
 #include <string>
+#include <vector>
 
+#include "emit/code_writer.hpp"
 #include "emit/emitter.hpp"
 #include "emit/kernel.hpp"
 
@@ -23,6 +25,23 @@ inline std::string ops_text(const OpCount& o, bool sqrt = false) {
 inline std::string as_comment(const std::string& text) {
   std::string out;
   for (const std::string& line : split_lines(text)) out += (out.empty() ? "// " : "\n// ") + line;
+  return out;
+}
+
+/// A step function whose body calls the runtime's loops: each line of `doc`
+/// as a comment ("" for none), then `signature {`, the `body` statements one
+/// a line, `}` (CodeWriter); no newline at the end.
+inline std::string call_function(const std::string& doc, const std::string& signature,
+                                 const std::vector<std::string>& body) {
+  CodeWriter w;
+  if (!doc.empty())
+    for (const std::string& line : split_lines(doc)) w.comment(line);
+  {
+    CodeWriter::Scope f(w, signature);
+    for (const std::string& statement : body) w.line(statement);
+  }
+  std::string out = w.take();
+  out.pop_back();
   return out;
 }
 

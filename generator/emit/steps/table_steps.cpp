@@ -77,31 +77,26 @@ void table_steps(const topology::Tree& t, const Plan& plan, Steps124& s) {
       "no fill-in; only ancestor rows are touched).",
       plan.products, unroll_limit());
   const char* flag = plan.ldlt ? "true" : "false";
-  s.step1 = fmt::format(
-      "// ---- Step 1: factor {} in place (packed), eq. (25)-(26), table-driven. ----\n{}\n"
-      "// {}\n"
-      "int step1_factor(double* L, double* Dinv) {{\n"
-      "  double pivot = 0.0;\n"
-      "  const std::int32_t j = jr::factor_packed(kModel, L, Dinv, {}, kPivotTolerance, &pivot);\n"
-      "  return j < 0 ? 0 : not_positive_definite(j, pivot);\n"
-      "}}",
-      factor_note(plan), as_comment(why), ops_text(s.ops1, true), flag);
-  s.step2 = packed_rows_tables(t) + fmt::format(
-      "\n\n// ---- Step 2: solve L z = Q (forward substitution), Remark 2, table-driven. ----\n"
-      "// Row j sums over its descendants (kRowEntry).\n"
-      "// {}\n"
-      "void step2_forward(const double* L, {}double* z) {{\n"
-      "  jr::forward_packed(kModel, kRows, L, {}, {}, z);\n"
-      "}}",
-      ops_text(s.ops2), plan.ldlt ? "" : "const double* Dinv, ", plan.ldlt ? "nullptr" : "Dinv", flag);
-  s.step4 = fmt::format(
-      "// ---- Step 4: solve L^T qdd = z (back substitution), Remark 2, table-driven. ----\n"
-      "// Column j sums over its ancestors (kEntryRow).\n"
-      "// {}\n"
-      "void step4_backward(const double* L, const double* Dinv, double* z) {{\n"
-      "  jr::backward_packed(kModel, kRows, L, Dinv, {}, z);\n"
-      "}}",
-      ops_text(s.ops4), flag);
+  s.step1 = call_function(
+      fmt::format("---- Step 1: factor {} in place (packed), eq. (25)-(26), table-driven. ----\n{}\n{}",
+                  factor_note(plan), why, ops_text(s.ops1, true)),
+      "int step1_factor(double* L, double* Dinv)",
+      {"double pivot = 0.0;",
+       fmt::format("const std::int32_t j = jr::factor_packed(kModel, L, Dinv, {}, kPivotTolerance, &pivot);", flag),
+       "return j < 0 ? 0 : not_positive_definite(j, pivot);"});
+  s.step2 = packed_rows_tables(t) + "\n\n" +
+            call_function("---- Step 2: solve L z = Q (forward substitution), Remark 2, table-driven. ----\n"
+                          "Row j sums over its descendants (kRowEntry).\n" +
+                              ops_text(s.ops2),
+                          fmt::format("void step2_forward(const double* L, {}double* z)",
+                                      plan.ldlt ? "" : "const double* Dinv, "),
+                          {fmt::format("jr::forward_packed(kModel, kRows, L, {}, {}, z);",
+                                       plan.ldlt ? "nullptr" : "Dinv", flag)});
+  s.step4 = call_function("---- Step 4: solve L^T qdd = z (back substitution), Remark 2, table-driven. ----\n"
+                          "Column j sums over its ancestors (kEntryRow).\n" +
+                              ops_text(s.ops4),
+                          "void step4_backward(const double* L, const double* Dinv, double* z)",
+                          {fmt::format("jr::backward_packed(kModel, kRows, L, Dinv, {}, z);", flag)});
 }
 
 }  // namespace jrgen::emit
