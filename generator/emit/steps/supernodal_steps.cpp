@@ -26,15 +26,9 @@ void supernodal_steps(const topology::Tree& t, const Plan& plan, Steps124& s) {
   const int n = static_cast<int>(nodes.size());
   s.step1 = fmt::format(
       "// ---- Step 1: factor M = L L^T, eq. (25)-(26), supernodal. ----\n"
-      "{}\n{}\n"
+      "{}\n// {}\n"
       "constexpr jr::Supernode kSupernodes[{}] = {{\n{}\n}};\n"
-      "thread_local double g_S[{}];  // the supernodes' columns of L, dense\n"
-      "int step1_factor(double* L, double* Dinv) {{\n"
-      "  double pivot = 0.0;\n"
-      "  const std::int32_t j =\n"
-      "      jr::factor_supernodal(kModel, kSupernodes, {}, L, g_S, Dinv, kPivotTolerance, &pivot);\n"
-      "  return j < 0 ? 0 : not_positive_definite(j, pivot);\n"
-      "}}",
+      "thread_local double g_S[{}];  // the supernodes' columns of L, dense\n",
       as_comment(fmt::format(
           "Dense supernodes (runs of >= {} dofs of the dof tree each with a single child,\n"
           "so their columns of L share one dense structure): Eigen's blocked Cholesky on\n"
@@ -42,19 +36,20 @@ void supernodal_steps(const topology::Tree& t, const Plan& plan, Steps124& s) {
           "rank-s update subtracted from the ancestors' packed columns.  Every other\n"
           "column: the runtime's scalar loops over the packed layout (Lemma 2).",
           kMinDenseSupernode)),
-      "// " + ops_text(s.ops1, true), n, table, dense, n);
-  s.step2 = fmt::format(
-      "// ---- Step 2: solve L z = Q (forward substitution), Remark 2, supernodal. ----\n{}\n"
-      "void step2_forward(const double* L, const double* Dinv, double* z) {{\n"
-      "  jr::forward_supernodal(kModel, kSupernodes, {}, L, g_S, Dinv, z);\n"
-      "}}",
-      "// " + ops_text(s.ops2, true), n);
-  s.step4 = fmt::format(
-      "// ---- Step 4: solve L^T qdd = z (back substitution), Remark 2, supernodal. ----\n{}\n"
-      "void step4_backward(const double* L, const double* Dinv, double* z) {{\n"
-      "  jr::backward_supernodal(kModel, kSupernodes, {}, L, g_S, Dinv, z);\n"
-      "}}",
-      "// " + ops_text(s.ops4, true), n);
+      ops_text(s.ops1, true), n, table, dense);
+  s.step1 += call_function(
+      "", "int step1_factor(double* L, double* Dinv)",
+      {"double pivot = 0.0;", "const std::int32_t j =",
+       fmt::format("    jr::factor_supernodal(kModel, kSupernodes, {}, L, g_S, Dinv, kPivotTolerance, &pivot);", n),
+       "return j < 0 ? 0 : not_positive_definite(j, pivot);"});
+  s.step2 = call_function(
+      "---- Step 2: solve L z = Q (forward substitution), Remark 2, supernodal. ----\n" + ops_text(s.ops2, true),
+      "void step2_forward(const double* L, const double* Dinv, double* z)",
+      {fmt::format("jr::forward_supernodal(kModel, kSupernodes, {}, L, g_S, Dinv, z);", n)});
+  s.step4 = call_function(
+      "---- Step 4: solve L^T qdd = z (back substitution), Remark 2, supernodal. ----\n" + ops_text(s.ops4, true),
+      "void step4_backward(const double* L, const double* Dinv, double* z)",
+      {fmt::format("jr::backward_supernodal(kModel, kSupernodes, {}, L, g_S, Dinv, z);", n)});
 }
 
 }  // namespace jrgen::emit
