@@ -98,21 +98,19 @@ StepCode step31(const Step3Layout& lay) {
     if (!lay.td.rows[i].empty()) row_of_T(lay, cdesc, i, k);
   const bool ldlt = lay.ldlt;
   const char* U = ldlt ? "U" : "T";
-  StepCode out;
-  out.ops = k.ops;
-  out.call_args = ldlt ? "g_L, g_T, g_Tr" : "g_L, g_Dinv, g_T, g_Tr";
-  out.text = k.functions(
-      "step31_solve_T",
-      ldlt ? "const double* L, const double* P, double* T" : "const double* L, const double* Dinv, const double* P, double* T",
-      ldlt ? "L, P, T" : "L, Dinv, P, T", false,
-      fmt::format("---- Step 3.1: solve L {0} = Phiq^T (P: the packed Phiq, cut row by cut row). ----\n"
-                  "Lemma 3: the column of row r of cut j is non-zero only at dofs of\n"
-                  "d[k] U d[l]; only those are stored and computed.  {0} is stored by\n"
-                  "its rows (dofs, descendants first), each row's constraint rows in\n"
-                  "elimination order, so neighbouring statements touch neighbouring entries.{1}\n"
-                  "{2}",
-                  U, ldlt ? " L has a unit diagonal: U = L^-1 Phiq^T." : "", ops_text(k.ops)));
-  return out;
+  const std::string call_args = ldlt ? "g_L, g_T, g_Tr" : "g_L, g_Dinv, g_T, g_Tr";
+  return {k.functions("step31_solve_T",
+                      ldlt ? "const double* L, const double* P, double* T"
+                           : "const double* L, const double* Dinv, const double* P, double* T",
+                      ldlt ? "L, P, T" : "L, Dinv, P, T", false,
+                      fmt::format("---- Step 3.1: solve L {0} = Phiq^T (P: the packed Phiq, cut row by cut row). ----\n"
+                                  "Lemma 3: the column of row r of cut j is non-zero only at dofs of\n"
+                                  "d[k] U d[l]; only those are stored and computed.  {0} is stored by\n"
+                                  "its rows (dofs, descendants first), each row's constraint rows in\n"
+                                  "elimination order, so neighbouring statements touch neighbouring entries.{1}\n"
+                                  "{2}",
+                                  U, ldlt ? " L has a unit diagonal: U = L^-1 Phiq^T." : "", ops_text(k.ops))),
+          k.ops, call_args};
 }
 
 }  // namespace jrgen::emit

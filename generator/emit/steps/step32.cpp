@@ -45,18 +45,16 @@ StepCode step32(const Step3Layout& lay) {
     k.assign_sum(u, "", fmt::format("zm[{}]", g), terms, fmt::format("gamma[{}]", g));
   }
   const std::string pivots = lay.divide ? "L" : "Dinv";
-  StepCode out;
-  out.ops = k.ops;
-  out.call_args = ldlt ? "g_Tr, g_" + pivots + ", g_z, g_gamma, g_V, g_zm" : "g_Tr, g_z, g_gamma, g_zm";
-  out.text = k.functions(
-      "step32_rhs",
-      ldlt ? "const double* T, const double* " + pivots + ", const double* z, const double* gamma, double* V, double* zm"
-           : "const double* T, const double* z, const double* gamma, double* zm",
-      ldlt ? "T, " + pivots + ", z, gamma, V, zm" : "T, z, gamma, zm", false,
-      fmt::format("---- Step 3.2: z_m = {} ----\n{}",
-                  ldlt ? "U^T D^-1 y - gamma, with V = D^-1 U kept for Step 3.3." : "T^T z_n - gamma.",
-                  ops_text(k.ops)));
-  return out;
+  const std::string call_args = ldlt ? "g_Tr, g_" + pivots + ", g_z, g_gamma, g_V, g_zm" : "g_Tr, g_z, g_gamma, g_zm";
+  return {k.functions("step32_rhs",
+                      ldlt ? "const double* T, const double* " + pivots +
+                                 ", const double* z, const double* gamma, double* V, double* zm"
+                           : "const double* T, const double* z, const double* gamma, double* zm",
+                      ldlt ? "T, " + pivots + ", z, gamma, V, zm" : "T, z, gamma, zm", false,
+                      fmt::format("---- Step 3.2: z_m = {} ----\n{}",
+                                  ldlt ? "U^T D^-1 y - gamma, with V = D^-1 U kept for Step 3.3." : "T^T z_n - gamma.",
+                                  ops_text(k.ops))),
+          k.ops, call_args};
 }
 
 }  // namespace jrgen::emit

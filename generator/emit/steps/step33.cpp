@@ -79,20 +79,18 @@ StepCode step33(const Step3Layout& lay) {
   if (lay.dense_schur()) dense_gram(lay, k);
   for (int j = 0; j < lay.m; ++j) column(lay, j, k);
   const bool ldlt = lay.ldlt;
-  StepCode out;
-  out.ops = k.ops;
-  out.call_args = ldlt ? "g_Tr, g_V, g_W" : "g_Tr, g_W";
-  out.text = k.functions(
-      "step33_TtT", ldlt ? "const double* T, const double* V, double* W" : "const double* T, double* W",
-      ldlt ? "T, V, W" : "T, W", false,
-      fmt::format("---- Step 3.3: W = {} (m = {}), {}. ----\n"
-                  "Entry (r, s) is computed only when the cuts of rows r and s share a dof;\n"
-                  "entries that are zero here but filled by Step 3.4 are set to 0.\n"
-                  "{}",
-                  ldlt ? "U^T D^-1 U = V^T U" : "T^T T", lay.m,
-                  lay.square_W ? fmt::format("square: entry (r, s) at W[r + {} s]", lay.ld) : "packed by columns",
-                  ops_text(k.ops)));
-  return out;
+  const std::string call_args = ldlt ? "g_Tr, g_V, g_W" : "g_Tr, g_W";
+  return {k.functions("step33_TtT", ldlt ? "const double* T, const double* V, double* W" : "const double* T, double* W",
+                      ldlt ? "T, V, W" : "T, W", false,
+                      fmt::format("---- Step 3.3: W = {} (m = {}), {}. ----\n"
+                                  "Entry (r, s) is computed only when the cuts of rows r and s share a dof;\n"
+                                  "entries that are zero here but filled by Step 3.4 are set to 0.\n"
+                                  "{}",
+                                  ldlt ? "U^T D^-1 U = V^T U" : "T^T T", lay.m,
+                                  lay.square_W ? fmt::format("square: entry (r, s) at W[r + {} s]", lay.ld)
+                                               : "packed by columns",
+                                  ops_text(k.ops))),
+          k.ops, call_args};
 }
 
 }  // namespace jrgen::emit

@@ -22,14 +22,12 @@ StepCode step35(const Step3Layout& lay) {
     const std::string z = fmt::format("z[{}]", i);
     k.update(u, "", z, z, terms, "");
   }
-  StepCode out;
-  out.ops = k.ops;
-  out.call_args = "g_Tr, g_zm, g_z";
-  out.text = k.functions("step35_update", "const double* T, const double* zm, double* z", "T, zm, z", false,
-                         fmt::format("---- Step 3.5: y_n = {} lambda, subtracted from z_n in place (Step 4 then ----\n"
-                                     "solves with z_n - y_n). Only rows of dofs some cut reaches.\n{}",
-                                     lay.ldlt ? "U" : "T", ops_text(k.ops)));
-  return out;
+  const std::string call_args = "g_Tr, g_zm, g_z";
+  return {k.functions("step35_update", "const double* T, const double* zm, double* z", "T, zm, z", false,
+                      fmt::format("---- Step 3.5: y_n = {} lambda, subtracted from z_n in place (Step 4 then ----\n"
+                                  "solves with z_n - y_n). Only rows of dofs some cut reaches.\n{}",
+                                  lay.ldlt ? "U" : "T", ops_text(k.ops))),
+          k.ops, call_args};
 }
 
 }  // namespace jrgen::emit
