@@ -22,6 +22,21 @@ namespace jrgen::emit {
 
 namespace {
 
+// What the user asked for and did not get all of (jrgen: note: ...).
+std::vector<std::string> notes(const Plan& plan, const Options& options, const LoopCode& loops) {
+  std::vector<std::string> out;
+  if (plan.parallel_declined && options.threads >= 2)
+    out.push_back(fmt::format("--threads {}: the dof tree has no subtree to factor in parallel below its separator "
+                              "(Corollary 3); Steps 1, 2 and 4 are serial",
+                              options.threads));
+  if (options.divide && !plan.unrolled)
+    out.push_back("--divide: Steps 1, 2 and 4 run the runtime's loops (a model this large) and multiply by "
+                  "reciprocal pivots");
+  if (options.divide && !loops.reciprocal_steps.empty())
+    out.push_back("--divide: Step " + loops.reciprocal_steps + " multiplies by reciprocal pivots");
+  return out;
+}
+
 // Steps 1, 2 and 4 in the shape the plan chose (steps/*.cpp).
 Steps124 steps124(const topology::Tree& t, const Plan& plan) {
   if (plan.unrolled) {
@@ -179,15 +194,7 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
 
   Solver solver;
   solver.divide = options.divide;
-  if (plan.parallel_declined && options.threads >= 2)
-    solver.notes.push_back(fmt::format("--threads {}: the dof tree has no subtree to factor in parallel below its "
-                                       "separator (Corollary 3); Steps 1, 2 and 4 are serial",
-                                       options.threads));
-  if (options.divide && !plan.unrolled)
-    solver.notes.push_back("--divide: Steps 1, 2 and 4 run the runtime's loops (a model this large) and multiply by "
-                           "reciprocal pivots");
-  if (options.divide && !loops.reciprocal_steps.empty())
-    solver.notes.push_back("--divide: Step " + loops.reciprocal_steps + " multiplies by reciprocal pivots");
+  solver.notes = notes(plan, options, loops);
   TemplateValues v = banner_values(robot, t, options);
   solver.header = header_text(v, t, plan);
 
