@@ -1,6 +1,8 @@
 // Emit stage, closed loops: the constraint tables and the straight-line code
 // of Step 3 (3.1-3.5) of the algorithm of Section 4.3, for trees with cut
 // joints whose kept rows are known (analysis::analyze_constraints).
+// Defined in steps/step3.cpp (emit_loops, one unit per sub-step beside it),
+// steps/schur_pattern.cpp and plan.cpp (the limits); see README.md.
 #pragma once
 
 #include <string>

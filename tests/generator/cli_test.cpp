@@ -411,6 +411,23 @@ TEST(CliOutput, HugeButRepresentableNumbersGiveFiniteConstants) {
   EXPECT_FALSE(std::regex_search(slurp(scratch / "solver.cpp"), non_finite));
 }
 
+// --threads N on a tree too small for Corollary 3's partition (every dof of a
+// short chain fits in the separator: no subtree left to run in parallel) was
+// an internal error (std::bad_alloc from an empty subtree table).  It now
+// generates the serial solver, the same as --threads 1, with a note.
+TEST(CliOutput, ThreadsOnAChainWithoutSubtreesGivesTheSerialSolver) {
+  ScratchDir scratch("jrgen_threads");
+  const std::string arm7 = (kModelsDir / "arm7.urdf").string();
+  const RunResult parallel = run_jrgen({arm7, "--threads", "2", "-o", "par.cpp"}, scratch.path());
+  ASSERT_EQ(parallel.status, 0) << parallel.command << "\n" << parallel.err;
+  EXPECT_TRUE(contains(parallel.err, "jrgen: note: --threads 2:")) << parallel.err;
+  const RunResult serial = run_jrgen({arm7, "--threads", "1", "-o", "ser.cpp"}, scratch.path());
+  ASSERT_EQ(serial.status, 0) << serial.command << "\n" << serial.err;
+  std::string par_code = slurp(scratch / "par.cpp"), ser_code = slurp(scratch / "ser.cpp");
+  EXPECT_FALSE(contains(par_code, "omp parallel"));
+  EXPECT_EQ(par_code.replace(par_code.find("par.hpp"), 7, "ser.hpp"), ser_code);
+}
+
 // -- every case in tests/errors/ -----------------------------------------------
 
 struct FolderCase {
