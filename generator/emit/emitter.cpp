@@ -2,6 +2,7 @@
 // write, calls one unit per generated block (generator/emit/README.md) and
 // fills the templates' substitutions with their text.
 #include "emit/emitter.hpp"
+#include "emit/terms.hpp"
 
 #include <fmt/format.h>
 
@@ -98,22 +99,47 @@ void source_values(const topology::Tree& t, const Options& options, const Plan& 
   // reciprocal pivots 1 / d (L D L^T) or 1 / l (L L^T), or with --divide in
   // straight-line code, where nothing else reads Dinv, the pivots d.
   v["m_pivots"] = plan.unrolled && !plan.write_dinv ? "false, 1" : plan.ldlt ? "true, 1" : "true, 2";
-  v["gravity_flag"] = plan.gravity ? "true" : "false";
-  v["damping_flag"] = plan.damping ? "true" : "false";
 }
 
 // The values the API templates (api_tree, api_loops) share.  With L D L^T
 // the forward solve has a unit diagonal and needs no Dinv.
-TemplateValues api_values(const Plan& plan, const TemplateValues& v) {
+TemplateValues api_values(const Plan& plan) {
   TemplateValues api;
   api["step2_args"] = plan.ldlt ? "g_L, g_z" : "g_L, g_Dinv, g_z";
-  std::string bias = "Coriolis and centrifugal terms";
-  if (plan.gravity) bias += ", gravity";
-  if (plan.damping) bias += ", joint damping";
-  api["bias_terms"] = bias;
-  api["gravity_flag"] = v.at("gravity_flag");
-  api["damping_flag"] = v.at("damping_flag");
   return api;
+}
+
+std::string without_final_newline(std::string s) {
+  if (!s.empty() && s.back() == '\n') s.pop_back();
+  return s;
+}
+
+// The terms of forward_dynamics (its route, emit/terms.hpp) and the bodies
+// of the API's pieces (mass_matrix, bias_forces, constraints, ...).
+void terms_values(const topology::Tree& t, const Options& options, const Steps124& steps, TemplateValues& api,
+                  TemplateValues& v, Solver& solver) {
+  const TermsBlock terms = t.nc() == 0
+                               ? tree_terms(t, options, flops(steps.ops1) + flops(steps.ops2) + flops(steps.ops4))
+                               : loop_terms(t, options);
+  v["terms"] = terms.definitions.empty() ? "" : "\n" + terms.definitions + "\n";
+  v["terms_include"] = terms.include;
+  api["fd_body"] = terms.fd_body;
+  if (t.nc() > 0) {
+    const ConstraintPieces c = constraint_pieces(t);
+    v["terms"] += c.definitions;
+    api["constraints_body"] = without_final_newline(c.constraints_body);
+    api["jacobian_body"] = without_final_newline(c.jacobian_body);
+    api["gamma_body"] = without_final_newline(c.gamma_body);
+  }
+  const PieceTerms pieces = piece_terms(t, options);
+  if (!pieces.definitions.empty()) v["terms"] += "\n" + pieces.definitions;
+  v["mass_matrix_body"] = without_final_newline(pieces.mass_matrix_body);
+  v["bias_forces_body"] = without_final_newline(pieces.bias_forces_body);
+  v["route"] = terms.summary;
+  solver.route = terms.summary;
+  solver.terms_ops = terms.ops;
+  solver.terms_unfolded_ops = terms.unfolded_ops;
+  solver.fd_runs_steps = terms.route != TermsRoute::kArticulated && terms.route != TermsRoute::kRuntimeArticulated;
 }
 
 // Step 3 and the API: a tree gets no constraint code at all.
@@ -205,7 +231,9 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
   v["step2"] = steps.step2;
   v["step4"] = steps.step4;
   v["gather"] = gathers(t, plan);
-  v["api"] = constraint_values(loops, plan, t.nc(), api_values(plan, v), v);
+  TemplateValues api = api_values(plan);
+  terms_values(t, options, steps, api, v, solver);
+  v["api"] = constraint_values(loops, plan, t.nc(), api, v);
 
   solver.ops = {{"1", steps.ops1}, {"2", steps.ops2}};
   solver.ops.insert(solver.ops.end(), loops.ops.begin(), loops.ops.end());

@@ -63,6 +63,10 @@ struct Solver {
   std::vector<StepOps> ops;  ///< per step of Section 4.3, in order
   std::vector<std::string> notes;  ///< one line each, for stderr (jrgen: note: ...)
   bool divide = false;             ///< emitted with Options::divide
+  std::string route;               ///< how forward_dynamics computes its terms (banner, report)
+  std::vector<std::pair<std::string, OpCount>> terms_ops;  ///< per block of the specialized terms
+  std::vector<std::pair<std::string, OpCount>> terms_unfolded_ops;  ///< the same, nothing folded
+  bool fd_runs_steps = true;  ///< forward_dynamics runs the generated Steps (false: articulated-body route)
 };
 
 /// Throws jrgen::Error for models the generated code cannot serve.

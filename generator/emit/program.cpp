@@ -92,7 +92,8 @@ void Program::split_if_full() {
 void Program::begin_block(const std::string& name) { blocks_.push_back(name); }
 
 void Program::comment(const std::string& text) {
-  comments_.push_back({text, static_cast<int>(functions_.size()) - 1, static_cast<int>(nodes_.size())});
+  // Joint and cut names reach comments: made safe for a // line here, once.
+  comments_.push_back({comment_text(text), static_cast<int>(functions_.size()) - 1, static_cast<int>(nodes_.size())});
 }
 
 void Program::output(const std::string& target, Value value) {
@@ -117,7 +118,7 @@ Value Program::make(Op op, Value a, Value b) {
   const auto neg_of = [&](Value v) -> const Value* {
     return !v.is_constant() && nodes_[v.node()].op == Op::kNeg ? &nodes_[v.node()].a : nullptr;
   };
-  switch (op) {
+  switch (fold_identities ? op : Op::kInput) {
     case Op::kAdd:
       if (a.is(0.0)) return b;
       if (b.is(0.0)) return a;
@@ -302,9 +303,14 @@ Program::Emitted Program::emit(const std::string& prefix) const {
     std::string body = head + bodies[f];
     // Strip comment-only bodies: a function with nothing to do is not emitted.
     if (body.find(';') == std::string::npos) continue;
-    std::string voids;
+    std::string voids, code;  // code: the body without its comment lines
+    for (std::size_t at = 0; at < body.size();) {
+      const std::size_t end = body.find('\n', at) + 1;
+      if (body.compare(at, 4, "  //") != 0) code += body.substr(at, end - at);
+      at = end;
+    }
     for (const std::string& p : params)
-      if (!uses_name(body, p)) voids += fmt::format("  (void){};\n", p);
+      if (!uses_name(code, p)) voids += fmt::format("  (void){};\n", p);
     out.definitions += fmt::format("// {}\n{}void {}({}) {{\n{}{}}}\n\n", functions_[f].doc, prefix,
                                    functions_[f].name, params_, voids, body);
     out.calls.push_back(functions_[f].name);

@@ -116,6 +116,10 @@ class Program {
   std::vector<std::pair<std::string, OpCount>> count() const;
 
   std::size_t max_statements = 4000;
+  /// false: x * 0, x * 1, x + 0 and the like stay operations (constants
+  /// meet only constants at generation time), so count() gives what the same
+  /// program costs without specialization's folding (--report's "before").
+  bool fold_identities = true;
 
  private:
   struct Node {

@@ -1,10 +1,47 @@
 #include "emit/report.hpp"
+#include "emit/terms.hpp"
 
 #include <fmt/format.h>
 
 #include <array>
 
 namespace jrgen::emit {
+
+namespace {
+
+// The whole call: which route forward_dynamics takes and the operations of
+// its specialized blocks (issue 20, item 4).
+std::string forward_dynamics_section(const Solver& solver) {
+  std::string out = "\n## forward_dynamics\n\n" + solver.route + ".\n";
+  if (solver.terms_ops.empty()) return out;
+  out += "\nOperations of its specialized terms per block, counted as emitted: additions\n"
+         "(A), multiplications (M), divisions (D), square roots (SQ), sines and cosines\n"
+         "(T).  \"Unfolded\" counts the same program with nothing known at generation\n"
+         "time folded (x * 0, x * 1, x + 0 kept: zero axis entries, identity rotations,\n"
+         "zero offsets, zero gravity); the difference is what specialization removed.\n\n"
+         "| block | A | M | D | SQ | T | total | unfolded | removed |\n"
+         "|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  OpCount total, unfolded_total;
+  for (std::size_t k = 0; k < solver.terms_ops.size(); ++k) {
+    const auto& [name, c] = solver.terms_ops[k];
+    const OpCount u = k < solver.terms_unfolded_ops.size() ? solver.terms_unfolded_ops[k].second : OpCount{};
+    out += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {:.0f} % |\n", name, c.add, c.mul, c.div, c.sqrt,
+                       c.trig, flops(c), flops(u), flops(u) ? 100.0 * (1.0 - double(flops(c)) / double(flops(u))) : 0.0);
+    total += c;
+    unfolded_total += u;
+  }
+  out += fmt::format("| total | {} | {} | {} | {} | {} | {} | {} | {:.0f} % |\n", total.add, total.mul, total.div,
+                     total.sqrt, total.trig, flops(total), flops(unfolded_total),
+                     flops(unfolded_total) ? 100.0 * (1.0 - double(flops(total)) / double(flops(unfolded_total))) : 0.0);
+  if (!solver.fd_runs_steps) return out + "\nThe whole call is this program (no factorization of M).\n";
+  OpCount steps;
+  for (const StepOps& s : solver.ops) steps += s.ops;
+  out += fmt::format("\nThe whole call: these terms, {} operations, then Steps 1-4 above, {}: {} in all.\n",
+                     flops(total), flops(steps), flops(total) + flops(steps));
+  return out;
+}
+
+}  // namespace
 
 std::string operation_report(const ir::Robot& robot, const topology::Tree& tree, const Solver& solver) {
   static const std::array<const char*, 8> kSteps = {"1", "2", "3.1", "3.2", "3.3", "3.4", "3.5", "4"};
@@ -36,6 +73,7 @@ std::string operation_report(const ir::Robot& robot, const topology::Tree& tree,
   row("M", &OpCount::mul);
   row("D", &OpCount::div);
   row("SQ", &OpCount::sqrt);
+  out += forward_dynamics_section(solver);
 
   // The paper's counts for its HMMWV 14-body model (Section 6), for scale.
   out += "\n## Reference: the paper's HMMWV 14-body model\n\n"

@@ -281,8 +281,16 @@ std::vector<ModelCase> all_models() {
   return out;
 }
 
+std::vector<ModelCase> long_chains() {
+  return {{"chain_1000", chain_urdf(1000, 2026)}, {"chain_10000", chain_urdf(10000, 2026)}};
+}
+
 const ModelCase& find_model_case(const std::string& name) {
-  static const std::vector<ModelCase> cases = all_models();
+  static const std::vector<ModelCase> cases = [] {
+    std::vector<ModelCase> out = all_models();
+    for (const ModelCase& c : long_chains()) out.push_back(c);
+    return out;
+  }();
   for (const ModelCase& c : cases)
     if (c.name == name) return c;
   throw std::runtime_error("no model case " + name);

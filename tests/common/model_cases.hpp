@@ -34,7 +34,12 @@ std::vector<ModelCase> loop_models();
 /// Trees and loops.
 std::vector<ModelCase> all_models();
 
-/// The case of all_models() with this name; throws std::runtime_error.
+/// Serial revolute chains of 1000 and 10 000 joints (issue 20: O(n) forward
+/// dynamics); in no list above, since a dense reference on them is O(n^3).
+std::vector<ModelCase> long_chains();
+
+/// The case of all_models() or long_chains() with this name; throws
+/// std::runtime_error.
 const ModelCase& find_model_case(const std::string& name);
 
 /// The case's URDF and cuts through the URDF reader ("<name>.urdf" and

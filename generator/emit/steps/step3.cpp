@@ -93,7 +93,7 @@ TByDofs t_by_dofs(const topology::Tree& t, const std::vector<Row>& rows, const S
 std::string workspace(const topology::Tree& t, int m, int phiq_nnz, bool unrolled, bool ldlt,
                       const std::string& w_declaration) {
   return fmt::format(
-      "thread_local jr::BodyMotion g_motion[{}];\n"
+      "[[maybe_unused]] thread_local jr::BodyMotion g_motion[{}];  // the runtime's constraint terms (fallback)\n"
       "{}"
       "thread_local double g_gamma[{}];\n"
       "{}"

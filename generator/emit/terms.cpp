@@ -1,0 +1,456 @@
+#include "emit/terms.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cstdlib>
+
+#include "emit/articulated_terms.hpp"
+#include "emit/bias_forces.hpp"
+#include "emit/constraint_terms.hpp"
+#include "emit/kinematics.hpp"
+#include "emit/mass_matrix.hpp"
+#include "emit/program.hpp"
+
+namespace jrgen::emit {
+
+namespace {
+
+bool has_damping(const topology::Tree& t) {
+  for (const topology::Body& b : t.bodies)
+    if (b.damping != 0.0) return true;
+  return false;
+}
+
+std::string bias_terms(const topology::Tree& t, const Options& options) {
+  std::string bias = "Coriolis and centrifugal terms";
+  if (!options.gravity.isZero(0.0)) bias += ", gravity";
+  if (has_damping(t)) bias += ", joint damping";
+  return bias;
+}
+
+std::string runtime_flags(const topology::Tree& t, const Options& options) {
+  return fmt::format("<{}, {}>", options.gravity.isZero(0.0) ? "false" : "true", has_damping(t) ? "true" : "false");
+}
+
+// The runtime's route: generic kinematics, M by eq. (14)/(18), h by
+// Newton-Euler, then the generated Steps 1, 2, 4 (solve_tree).
+std::string runtime_fd_body(const topology::Tree& t, const Options& options) {
+  return fmt::format(
+      "  jr::kinematics(kModel, g_bodies, q);\n"
+      "  // M, eq. (18), by the composite-rigid-body recursion, eq. (14).\n"
+      "  jr::mass_matrix_packed(kModel, g_bodies, g_L);\n"
+      "  // Q = tau - h ({}).\n"
+      "  jr::bias_forces{}(kModel, g_bodies, v, g_z);\n"
+      "  for (std::int32_t j = 0; j < nv; ++j) g_z[j] = tau[kDofUser[j]] - g_z[j];\n"
+      "  const int status = solve_tree(nullptr, qdd);\n",
+      bias_terms(t, options), runtime_flags(t, options));
+}
+
+// One specialized program: its emitted functions, a driver `name` calling
+// them with `args`, and its counts.
+struct Built {
+  Program::Emitted emitted;
+  std::string definitions;
+};
+
+std::string driver(const Program::Emitted& e, const std::string& name, const std::string& params,
+                   const std::string& args, const std::string& spill) {
+  std::string out;
+  if (e.spills > 0)
+    out += fmt::format("thread_local double {}[{}];  // values passed between the parts below\n\n", spill, e.spills);
+  out += e.definitions;
+  out += fmt::format("void {}({}) {{\n", name, params);
+  for (const std::string& call : e.calls) out += fmt::format("  {}({});\n", call, args);
+  if (e.calls.empty())
+    for (std::size_t at = 0; at < args.size();) {
+      const std::size_t end = std::min(args.find(", ", at), args.size());
+      out += fmt::format("  (void){};\n", args.substr(at, end - at));
+      at = end + 2;
+    }
+  return out + "}\n";
+}
+
+// kinematics + articulated-body algorithm: qdd (user order), pivots D (Lemma 2).
+Built articulated_program(const topology::Tree& t, const Options& options, bool fold = true) {
+  const std::string params = "const double* q, const double* v, const double* tau, double* qdd, double* D";
+  Program program(params, "g_aba_spill");
+  program.fold_identities = fold;
+  program.begin_function("articulated_terms_part", "forward_dynamics: specialized kinematics and articulated-body "
+                                                   "algorithm (Featherstone 2008, Table 7.1)");
+  program.begin_block("kinematics");
+  program.comment("Joint transforms X_PC and motion subspaces S (constants folded, sin/cos once per joint).");
+  const std::vector<BodyFrame> frames = joint_frames(program, t);
+  program.comment("Body velocities and velocity-product accelerations, root first.");
+  const std::vector<BodyMotion6> motion = body_velocities(program, t, frames);
+  program.begin_block("articulated body (qdd = M^-1 (tau - h))");
+  const ArticulatedResult aba = articulated_body(program, t, frames, motion, options.gravity);
+  for (int j = 0; j < t.nv; ++j) program.output(fmt::format("qdd[{}]", t.dof_user[j]), aba.qdd[j]);
+  for (int j = 0; j < t.nv; ++j) program.output(fmt::format("D[{}]", j), aba.pivots[j]);
+  Built b{program.emit(), ""};
+  b.definitions = driver(b.emitted, "articulated_terms", params, "q, v, tau, qdd, D", "g_aba_spill");
+  return b;
+}
+
+// kinematics + M (packed, eq. 14/18) + z = tau - h (Lemma 2 order).
+Built composite_program(const topology::Tree& t, const Options& options, bool fold = true) {
+  const std::string params = "const double* q, const double* v, const double* tau, double* L, double* z";
+  Program program(params, "g_crb_spill");
+  program.fold_identities = fold;
+  program.begin_function("composite_terms_part",
+                         "forward_dynamics: specialized kinematics, M (eq. 14, 18) and Q = tau - h");
+  program.begin_block("kinematics");
+  program.comment("Joint transforms X_PC and motion subspaces S (constants folded, sin/cos once per joint).");
+  const std::vector<BodyFrame> frames = joint_frames(program, t);
+  const std::vector<BodyMotion6> motion = body_velocities(program, t, frames);
+  program.begin_block("M (eq. 14, 18)");
+  program.comment("M, eq. (18): composite inertias leaves first (eq. 14), packed as Step 1 factors it.");
+  const std::vector<Value> M = mass_matrix_packed(program, t, frames);
+  for (std::size_t k = 0; k < M.size(); ++k) program.output(fmt::format("L[{}]", k), M[k]);
+  program.begin_block("h (Newton-Euler)");
+  program.comment(fmt::format("Q = tau - h ({}), Lemma 2 order.", bias_terms(t, options)));
+  const std::vector<Value> h = bias_forces(program, t, frames, motion, options.gravity);
+  for (int j = 0; j < t.nv; ++j)
+    program.output(fmt::format("z[{}]", j), program.input(fmt::format("tau[{}]", t.dof_user[j])) - h[j]);
+  Built b{program.emit(), ""};
+  b.definitions = driver(b.emitted, "composite_terms", params, "q, v, tau, L, z", "g_crb_spill");
+  return b;
+}
+
+// "N statements", or for a program not built because it could not fit, "too many".
+std::string size_text(const Built& b) {
+  return b.definitions.empty() ? "too many statements" : fmt::format("{} statements", b.emitted.statements);
+}
+
+const char* const kCheckArticulated =
+    "// Status 1 when a pivot D_j is not positive (M not positive definite) or the\n"
+    "// pivots' spread d_min / d_max is below kSpreadLimit (M singular to working\n"
+    "// precision: Step 1's digits test on the same pivots); 3 for a non-finite qdd.\n"
+    "int check_articulated(const double* D, const double* qdd) {\n"
+    "  for (std::int32_t j = 0; j < nv; ++j)\n"
+    "    if (!(D[j] > 0.0)) return not_positive_definite(j, D[j]);\n"
+    "  double ratio = 0.0;\n"
+    "  const std::int32_t j = jr::pivot_spread(D, nv, false, 1, kSpreadLimit, &ratio);\n"
+    "  if (j >= 0)\n"
+    "    return fail(kMassNotPositiveDefinite,\n"
+    "                \"mass matrix singular to working precision (smallest pivot below 1e-13 of the largest)\",\n"
+    "                kDofUser[j], ratio);\n"
+    "  if (jr::any_non_finite(qdd, nv))\n"
+    "    for (std::int32_t i = 0; i < nv; ++i)\n"
+    "      if (!std::isfinite(qdd[i])) return fail(kNonFinite, \"non-finite acceleration\", i, qdd[i]);\n"
+    "  g_error[0] = '\\0';\n"
+    "  return kSuccess;\n"
+    "}\n";
+
+TermsBlock articulated_block(const Built& b) {
+  TermsBlock block;
+  block.route = TermsRoute::kArticulated;
+  block.ops = b.emitted.block_ops;
+  block.statements = b.emitted.statements;
+  block.definitions =
+      "// ---- forward_dynamics: specialized kinematics and articulated-body algorithm ----\n"
+      "// O(n), joint frames, inertias and gravity folded in as constants.  Its pivots D\n"
+      "// are those of Step 1's leaves-first L D L^T of M (eliminating a leaf dof leaves\n"
+      "// the parent's articulated inertia as Schur complement: Featherstone 2008,\n"
+      "// Sec. 6.5), so Step 1's tests apply to them (check_articulated).\n" +
+      b.definitions + "\n" + kCheckArticulated;
+  block.fd_body =
+      "  // Specialized kinematics and articulated-body algorithm: qdd in user order,\n"
+      "  // the pivots D in g_Dinv (Lemma 2 order).\n"
+      "  articulated_terms(q, v, tau, qdd, g_Dinv);\n"
+      "  const int status = check_articulated(g_Dinv, qdd);\n";
+  return block;
+}
+
+TermsBlock composite_block(const Built& b) {
+  TermsBlock block;
+  block.route = TermsRoute::kCompositeRigidBody;
+  block.ops = b.emitted.block_ops;
+  block.statements = b.emitted.statements;
+  block.definitions =
+      "// ---- forward_dynamics: specialized kinematics, M (eq. 14, 18) and Q = tau - h ----\n"
+      "// Joint frames, inertias and gravity folded in as constants; M goes straight\n"
+      "// into the packed layout that Step 1 factors in place.\n" +
+      b.definitions;
+  block.fd_body =
+      "  // Specialized kinematics, M into g_L (packed) and Q = tau - h into g_z.\n"
+      "  composite_terms(q, v, tau, g_L, g_z);\n"
+      "  const int status = solve_tree(nullptr, qdd);\n";
+  return block;
+}
+
+// kinematics + M (packed) + z = tau - h + packed Phiq + gamma: every term of
+// eq. (17) that forward_dynamics needs, one program (kinematics shared).
+Built loop_program(const topology::Tree& t, const Options& options, bool fold = true) {
+  const std::string params =
+      "const double* q, const double* v, const double* tau, double* L, double* z, double* T, double* gamma";
+  Program program(params, "g_terms_spill");
+  program.fold_identities = fold;
+  program.begin_function("loop_terms_part", "forward_dynamics: specialized kinematics, M, Q = tau - h, Phiq, gamma");
+  program.begin_block("kinematics");
+  program.comment("Joint transforms X_PC and motion subspaces S (constants folded, sin/cos once per joint).");
+  const std::vector<BodyFrame> frames = joint_frames(program, t);
+  const std::vector<BodyMotion6> motion = body_velocities(program, t, frames);
+  program.begin_block("M (eq. 14, 18)");
+  program.comment("M, eq. (18): composite inertias leaves first (eq. 14), packed as Step 1 factors it.");
+  const std::vector<Value> M = mass_matrix_packed(program, t, frames);
+  for (std::size_t k = 0; k < M.size(); ++k) program.output(fmt::format("L[{}]", k), M[k]);
+  program.begin_block("h (Newton-Euler)");
+  program.comment(fmt::format("Q = tau - h ({}), Lemma 2 order.", bias_terms(t, options)));
+  const std::vector<Value> h = bias_forces(program, t, frames, motion, options.gravity);
+  for (int j = 0; j < t.nv; ++j)
+    program.output(fmt::format("z[{}]", j), program.input(fmt::format("tau[{}]", t.dof_user[j])) - h[j]);
+  program.begin_block("Phiq, gamma");
+  program.comment("Phiq (packed, Lemma 3: each cut's rows touch only the dofs on its paths) and gamma.");
+  const ConstraintValues c = constraint_terms(program, t, frames, motion);
+  for (std::size_t k = 0; k < c.phiq_packed.size(); ++k) program.output(fmt::format("T[{}]", k), c.phiq_packed[k]);
+  for (std::size_t r = 0; r < c.gamma.size(); ++r) program.output(fmt::format("gamma[{}]", r), c.gamma[r]);
+  Built b{program.emit(), ""};
+  b.definitions = driver(b.emitted, "loop_terms", params, "q, v, tau, L, z, T, gamma", "g_terms_spill");
+  return b;
+}
+
+// Row and user column of each packed Phiq entry (analysis::cut_models'
+// layout: cut by cut, kept row by kept row, the cut's dofs in order).
+std::vector<std::pair<int, int>> phiq_positions(const topology::Tree& t) {
+  std::vector<std::pair<int, int>> at;
+  int row = 0;
+  for (const topology::Cut& cut : t.cuts)
+    for (std::size_t r = 0; r < cut.kept_rows.size(); ++r, ++row)
+      for (int dof : cut.dofs) at.push_back({row, t.dof_user[dof]});
+  return at;
+}
+
+// Operations of the runtime's routes per model, counted from its loops
+// (runtime/src/runtime.cpp, articulated.cpp) for a one-dof joint: the
+// articulated-body algorithm moves a 6x6 articulated inertia to the parent
+// per body (two 6x6 products, about 2 * 2 * 216), the composite-rigid-body
+// route builds each stored entry of M (a 6-vector carried one body up and a
+// dot product, about 60) and then runs Steps 1, 2, 4.
+constexpr long long kRuntimeArticulatedPerDof = 1000;
+constexpr long long kRuntimeCompositePerEntry = 60;
+
+TermsBlock runtime_block(const topology::Tree& t, const Options& options, long long solve_flops) {
+  TermsBlock block;
+  const long long aba = kRuntimeArticulatedPerDof * t.nv;
+  const long long crb = kRuntimeCompositePerEntry * t.nnz() + solve_flops;
+  if (crb <= aba) {
+    block.fd_body = runtime_fd_body(t, options);
+    block.summary = fmt::format(
+        "forward_dynamics: the runtime's kinematics, M and h, then Steps 1, 2, 4 (about {} operations; "
+        "its articulated-body algorithm about {})",
+        crb, aba);
+    return block;
+  }
+  block.route = TermsRoute::kRuntimeArticulated;
+  block.include = "#include <jrgen/articulated.hpp>\n";
+  block.definitions =
+      "// ---- forward_dynamics: the runtime's articulated-body algorithm, O(n) ----\n"
+      "thread_local jr::ArticulatedState g_articulated[nb_articulated];\n\n" +
+      std::string(kCheckArticulated);
+  block.definitions.replace(block.definitions.find("nb_articulated"), 14, std::to_string(t.bodies.size()));
+  block.fd_body = fmt::format(
+      "  // The runtime's articulated-body algorithm (O(n)): qdd in g_z and the\n"
+      "  // pivots D in g_Dinv, Lemma 2 order; a failed pivot stops it (check_articulated).\n"
+      "  jr::kinematics(kModel, g_bodies, q);\n"
+      "  jr::articulated_dynamics{}(kModel, g_bodies, g_articulated, v, tau, g_z, g_Dinv);\n"
+      "  scatter_qdd(g_z, qdd);\n"
+      "  const int status = check_articulated(g_Dinv, qdd);\n",
+      runtime_flags(t, options));
+  block.summary = fmt::format(
+      "forward_dynamics: the runtime's articulated-body algorithm, O(n) (about {} operations; its "
+      "composite-rigid-body route and Steps 1, 2, 4 about {})",
+      aba, crb);
+  return block;
+}
+
+}  // namespace
+
+long long flops(const OpCount& c) { return c.add + c.mul + c.div + c.sqrt + c.trig; }
+
+long long terms_limit() {
+  if (const char* env = std::getenv("JRGEN_TERMS_LIMIT")) return std::atoll(env);
+  return kMaxTermStatements;
+}
+
+TermsBlock tree_terms(const topology::Tree& t, const Options& options, long long solve_flops) {
+  const long long limit = terms_limit();
+  // Programs that cannot fit are not built: the composite-rigid-body program
+  // writes every stored entry of M (nnz statements at least), the
+  // articulated-body program holds well over 100 statements per dof.
+  const Built aba = 100LL * t.nv <= limit ? articulated_program(t, options) : Built{};
+  const Built crb = t.nnz() <= limit ? composite_program(t, options) : Built{};
+  const long long aba_flops = flops(aba.emitted.total), crb_flops = flops(crb.emitted.total) + solve_flops;
+  const bool aba_fits = !aba.definitions.empty() && aba.emitted.statements <= limit;
+  const bool crb_fits = !crb.definitions.empty() && crb.emitted.statements <= limit;
+  if (!aba_fits && !crb_fits) {
+    TermsBlock block = runtime_block(t, options, solve_flops);
+    block.summary += fmt::format(" (the specialized programs would hold {} and {}, the limit is {})",
+                                 size_text(crb), size_text(aba), limit);
+    return block;
+  }
+  const bool articulated = aba_fits && (!crb_fits || aba_flops < crb_flops);
+  TermsBlock block = articulated ? articulated_block(aba) : composite_block(crb);
+  block.unfolded_ops = (articulated ? articulated_program(t, options, false) : composite_program(t, options, false))
+                           .emitted.block_ops;
+  block.summary = fmt::format(
+      "forward_dynamics: {} ({} operations; the {} route counts {})",
+      articulated ? "specialized kinematics and articulated-body algorithm, O(n)"
+                  : "specialized kinematics, M and h, then Steps 1, 2, 4",
+      articulated ? aba_flops : crb_flops, articulated ? "composite-rigid-body" : "articulated-body",
+      articulated ? crb_flops : aba_flops);
+  return block;
+}
+
+PieceTerms piece_terms(const topology::Tree& t, const Options& options) {
+  PieceTerms pieces;
+  const long long limit = terms_limit();
+  if (static_cast<long long>(t.nv) * t.nv <= limit) {  // the dense M written entry by entry
+    Program program("const double* q, double* M", "g_mass_spill");
+    program.begin_function("mass_matrix_part", "mass_matrix(): specialized kinematics and M (eq. 14, 18)");
+    program.begin_block("M");
+    const std::vector<BodyFrame> frames = joint_frames(program, t);
+    const std::vector<Value> Mp = mass_matrix_packed(program, t, frames);
+    std::vector<Value> dense(static_cast<std::size_t>(t.nv) * t.nv, 0.0);
+    for (int c = 0, k = 0; c < t.nv; ++c)
+      for (int r = c; r >= 0; r = t.dof_parent[r], ++k) {
+        const std::size_t ru = t.dof_user[r], cu = t.dof_user[c];
+        dense[ru + t.nv * cu] = dense[cu + t.nv * ru] = Mp[k];
+      }
+    for (std::size_t k = 0; k < dense.size(); ++k) program.output(fmt::format("M[{}]", k), dense[k]);
+    const Program::Emitted e = program.emit();
+    if (e.statements <= limit) {
+      pieces.definitions += driver(e, "mass_matrix_terms", "const double* q, double* M", "q, M", "g_mass_spill");
+      pieces.mass_matrix_body = "  mass_matrix_terms(q, M);  // specialized (dense, user order)\n";
+    }
+  }
+  if (pieces.mass_matrix_body.empty())
+    pieces.mass_matrix_body =
+        "  jr::kinematics(kModel, g_bodies, q);\n"
+        "  jr::mass_matrix_packed(kModel, g_bodies, g_L);\n"
+        "  jr::unpack_mass_matrix(kModel, g_L, M);\n";
+  if (100LL * t.nv <= limit) {
+    Program program("const double* q, const double* v, double* h", "g_bias_spill");
+    program.begin_function("bias_forces_part", "bias_forces(): specialized kinematics and h (Newton-Euler)");
+    program.begin_block("h");
+    const std::vector<BodyFrame> frames = joint_frames(program, t);
+    const std::vector<BodyMotion6> motion = body_velocities(program, t, frames);
+    const std::vector<Value> h = bias_forces(program, t, frames, motion, options.gravity);
+    for (int j = 0; j < t.nv; ++j) program.output(fmt::format("h[{}]", t.dof_user[j]), h[j]);
+    const Program::Emitted e = program.emit();
+    if (e.statements <= limit) {
+      pieces.definitions +=
+          "\n" + driver(e, "bias_forces_terms", "const double* q, const double* v, double* h", "q, v, h", "g_bias_spill");
+      pieces.bias_forces_body = "  bias_forces_terms(q, v, h);  // specialized (user order)\n";
+    }
+  }
+  if (pieces.bias_forces_body.empty())
+    pieces.bias_forces_body = fmt::format(
+        "  jr::kinematics(kModel, g_bodies, q);\n"
+        "  jr::bias_forces{}(kModel, g_bodies, v, g_z);\n"
+        "  for (std::int32_t j = 0; j < nv; ++j) h[kDofUser[j]] = g_z[j];\n",
+        runtime_flags(t, options));
+  if (!pieces.definitions.empty())
+    pieces.definitions = "// ---- mass_matrix() and bias_forces(): specialized programs ----\n" + pieces.definitions;
+  return pieces;
+}
+
+}  // namespace jrgen::emit
+
+namespace jrgen::emit {
+
+TermsBlock loop_terms(const topology::Tree& t, const Options& options) {
+  const long long limit = terms_limit();
+  const Built b = t.nnz() <= limit && 100LL * t.nv <= limit ? loop_program(t, options) : Built{};
+  TermsBlock block;
+  if (b.definitions.empty() || b.emitted.statements > limit) {
+    block.fd_body = fmt::format(
+        "  jr::kinematics(kModel, g_bodies, q);\n"
+        "  // M, eq. (18), by the composite-rigid-body recursion, eq. (14).\n"
+        "  jr::mass_matrix_packed(kModel, g_bodies, g_L);\n"
+        "  // Q = tau - h ({}).\n"
+        "  jr::bias_forces{}(kModel, g_bodies, v, g_z);\n"
+        "  for (std::int32_t j = 0; j < nv; ++j) g_z[j] = tau[kDofUser[j]] - g_z[j];\n"
+        "  // Phiq (packed, Lemma 3 pattern) and gamma = -(Phiq v)_q v.\n"
+        "  jr::constraint_terms(kModel, kConstraints, g_bodies, g_motion, q, v, nullptr, g_T, g_gamma);\n"
+        "  const int status = solve_closed(nullptr, qdd, lambda);\n",
+        bias_terms(t, options), runtime_flags(t, options));
+    block.summary = fmt::format(
+        "forward_dynamics: the runtime's kinematics, M, h, Phiq and gamma, then Steps 1-4 (the specialized "
+        "program would hold {}, the limit is {})",
+        size_text(b), limit);
+    return block;
+  }
+  block.route = TermsRoute::kCompositeRigidBody;
+  block.ops = b.emitted.block_ops;
+  block.unfolded_ops = loop_program(t, options, false).emitted.block_ops;
+  block.statements = b.emitted.statements;
+  block.definitions =
+      "// ---- forward_dynamics: specialized kinematics, M, Q = tau - h, Phiq and gamma ----\n"
+      "// Joint frames, inertias, cut frames and gravity folded in as constants, the\n"
+      "// kinematics computed once for all terms; M and Phiq go straight into the\n"
+      "// packed layouts that Steps 1 and 3 read.\n" +
+      b.definitions;
+  block.fd_body =
+      "  // Specialized terms: M into g_L (packed), Q = tau - h into g_z, Phiq into g_T\n"
+      "  // (packed, Lemma 3 pattern), gamma = -(Phiq v)_q v into g_gamma.\n"
+      "  loop_terms(q, v, tau, g_L, g_z, g_T, g_gamma);\n"
+      "  const int status = solve_closed(nullptr, qdd, lambda);\n";
+  block.summary = fmt::format(
+      "forward_dynamics: specialized kinematics, M, h, Phiq and gamma ({} operations), then Steps 1-4",
+      flops(b.emitted.total));
+  return block;
+}
+
+ConstraintPieces constraint_pieces(const topology::Tree& t) {
+  ConstraintPieces pieces;
+  const long long limit = terms_limit();
+  const int nc = t.nc();
+  const std::vector<std::pair<int, int>> at = phiq_positions(t);
+  // One program per piece: constraints(q, phi), constraint_jacobian(q, Phiq)
+  // dense column-major (zeros written), constraint_gamma(q, v, gamma).
+  auto build = [&](const std::string& name, const std::string& params, const std::string& args, int which) {
+    if (100LL * t.nv > limit || (which == 1 && static_cast<long long>(nc) * t.nv > limit)) return false;
+    Program program(params, "g_" + name + "_spill");
+    program.begin_function(name + "_part", name + "(): specialized kinematics and constraint terms");
+    program.begin_block(name);
+    const std::vector<BodyFrame> frames = joint_frames(program, t);
+    std::vector<BodyMotion6> motion;
+    if (which == 2) motion = body_velocities(program, t, frames);
+    const ConstraintValues c = constraint_terms(program, t, frames, motion);
+    if (which == 0)
+      for (int r = 0; r < nc; ++r) program.output(fmt::format("phi[{}]", r), c.phi[r]);
+    if (which == 1) {
+      std::vector<Value> dense(static_cast<std::size_t>(nc) * t.nv, 0.0);
+      for (std::size_t k = 0; k < at.size(); ++k)
+        if (!c.phiq_packed[k].is(0.0)) dense[at[k].first + static_cast<std::size_t>(nc) * at[k].second] = c.phiq_packed[k];
+      for (std::size_t k = 0; k < dense.size(); ++k) program.output(fmt::format("Phiq[{}]", k), dense[k]);
+    }
+    if (which == 2)
+      for (int r = 0; r < nc; ++r) program.output(fmt::format("gamma[{}]", r), c.gamma[r]);
+    const Program::Emitted e = program.emit();
+    if (e.statements > limit) return false;
+    pieces.definitions += "\n" + driver(e, name + "_terms", params, args, "g_" + name + "_spill");
+    return true;
+  };
+  pieces.constraints_body = build("constraints", "const double* q, double* phi", "q, phi", 0)
+                                ? "  constraints_terms(q, phi);  // specialized\n"
+                                : "  jr::constraints(kModel, kConstraints, g_bodies, q, phi);\n";
+  pieces.jacobian_body =
+      build("constraint_jacobian", "const double* q, double* Phiq", "q, Phiq", 1)
+          ? "  constraint_jacobian_terms(q, Phiq);  // specialized (dense, column-major)\n"
+          : "  jr::kinematics(kModel, g_bodies, q);\n"
+            "  jr::constraint_terms(kModel, kConstraints, g_bodies, g_motion, q, nullptr, nullptr, g_T, nullptr);\n"
+            "  jr::unpack_constraint_jacobian(kModel, kConstraints, g_T, Phiq);\n";
+  pieces.gamma_body =
+      build("constraint_gamma", "const double* q, const double* v, double* gamma", "q, v, gamma", 2)
+          ? "  constraint_gamma_terms(q, v, gamma);  // specialized\n"
+          : "  jr::kinematics(kModel, g_bodies, q);\n"
+            "  jr::constraint_terms(kModel, kConstraints, g_bodies, g_motion, q, v, nullptr, nullptr, gamma);\n";
+  if (!pieces.definitions.empty())
+    pieces.definitions = "// ---- constraints(), constraint_jacobian(), constraint_gamma(): specialized ----" +
+                         pieces.definitions;
+  return pieces;
+}
+
+}  // namespace jrgen::emit
