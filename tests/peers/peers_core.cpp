@@ -159,15 +159,16 @@ int run(int argc, char** argv, const ModelInfo& info, const GeneratedApi& g) {
   ir::Robot robot = urdf::read_robot(info.urdf);
   if (info.cuts[0]) urdf::read_cuts(info.cuts, robot);
   const State s = make_state(robot, g, 20261204);
-  const Eigen::VectorXd ref = reference_qdd(robot, s.q, s.v, s.tau, kGravity);
+  const Eigen::VectorXd ref = report::reference_qdd(robot, s.q, s.v, s.tau, kGravity);
 
   std::vector<Case> cases;
   add_jrgen_cases(g, s, cases);
   const std::string mj_note = add_mujoco_case(info, robot, g, s, cases);
   benchmark::AddCustomContext("mujoco", mj_note);
+  const bool floating = !robot.joints.empty() && robot.joints[0].type == ir::JointType::Floating;
+  benchmark::AddCustomContext("base", floating ? "floating" : "fixed");
 #ifdef JRGEN_PEERS_PINOCCHIO
   std::vector<std::string> joints(g.joint_names, g.joint_names + g.njoints);
-  const bool floating = !robot.joints.empty() && robot.joints[0].type == ir::JointType::Floating;
   const std::string pin_note =
       g.nc ? "closed loops" : pinocchio_cases(info.urdf, floating, joints, g, s, cases);
   benchmark::AddCustomContext("pinocchio", pin_note);
@@ -185,7 +186,7 @@ int run(int argc, char** argv, const ModelInfo& info, const GeneratedApi& g) {
     if (!cases[c].qdd) continue;
     cases[c].run();
     cases[c].qdd(x);
-    acc[c] = {relative_error(x, ref), relative_error(x, jr_qdd)};
+    acc[c] = {report::relative_error(x, ref), report::relative_error(x, jr_qdd)};
     std::fprintf(stderr, "%-10s %-34s err vs reference %.2e   vs jrgen %.2e\n", info.name, cases[c].name.c_str(),
                  acc[c].err_ref, acc[c].err_jrgen);
     // Catches a wrong mapping or formula (an O(1) error), not rounding: the

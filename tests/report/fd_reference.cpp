@@ -6,7 +6,7 @@
 #include "reference/reference_constraints.hpp"
 #include "reference/reference_dynamics.hpp"
 
-namespace jrgen::peers {
+namespace jrgen::report {
 
 namespace {
 using MatrixXld = Eigen::Matrix<long double, Eigen::Dynamic, Eigen::Dynamic>;
@@ -59,4 +59,4 @@ double relative_error(const Eigen::VectorXd& x, const Eigen::VectorXd& ref) {
   return (x - ref).norm() / ref.norm();
 }
 
-}  // namespace jrgen::peers
+}  // namespace jrgen::report

@@ -1,6 +1,6 @@
-// The reference qdd of the peers benchmark (tests/peers): the repository's
-// independent world-frame dynamics (tests/reference/reference_dynamics.hpp:
-// M, h) and loop-closure rows (tests/reference/reference_constraints.hpp:
+// The reference qdd of the full forward-dynamics tables (the solver report and
+// tests/peers): the repository's independent world-frame dynamics
+// (tests/reference/reference_dynamics.hpp: M, h) and loop-closure rows (tests/reference/reference_constraints.hpp:
 // Phiq, gamma), evaluated in double, then eq. (17) solved in long double:
 //
 //   M qdd + Phiq^T lambda = tau - h,   Phiq qdd = gamma
@@ -17,7 +17,7 @@
 
 #include "ir/ir.hpp"
 
-namespace jrgen::peers {
+namespace jrgen::report {
 
 Eigen::VectorXd reference_qdd(const ir::Robot& robot, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
                               const Eigen::VectorXd& tau, const Eigen::Vector3d& gravity);
@@ -25,4 +25,4 @@ Eigen::VectorXd reference_qdd(const ir::Robot& robot, const Eigen::VectorXd& q, 
 /// |x - ref|_2 / |ref|_2.
 double relative_error(const Eigen::VectorXd& x, const Eigen::VectorXd& ref);
 
-}  // namespace jrgen::peers
+}  // namespace jrgen::report
