@@ -38,7 +38,7 @@ def us(rows, name):
 def fmt(x):
     if x is None:
         return ""
-    return f"{x:.3g}" if x < 100 else f"{x:.0f}"
+    return f"{x:#.3g}" if x < 100 else f"{x:.0f}"
 
 
 def model_cell(ctx, rows):

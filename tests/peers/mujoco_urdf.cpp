@@ -13,7 +13,7 @@ std::string mujoco_unsupported(const ir::Robot& robot) {
   for (const ir::Joint& j : robot.joints) {
     if (j.type == ir::JointType::Ball || j.type == ir::JointType::Planar)
       return std::string("a ") + ir::joint_type_name(j.type) + " joint (" + j.name +
-             "): MuJoCo 2.2's URDF reader does not take it";
+             "): not standard URDF, not mapped";
     if (j.type == ir::JointType::Floating &&
         (j.parent_link != robot.root_link || !j.origin.p.isZero(0) || !j.origin.R.isIdentity(0)))
       return "floating joint " + j.name + " not at the identity on the root link";

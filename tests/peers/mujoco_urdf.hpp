@@ -25,20 +25,15 @@
 #include <vector>
 
 #include "ir/ir.hpp"
+#include "peers_core.hpp"
 
 struct mjModel_;
 struct mjData_;
 
 namespace jrgen::peers {
 
-/// The joints of the generated solver (its joint_names, joint_q_index,
-/// joint_v_index), user order.
-struct JointLayout {
-  std::vector<std::string> names;
-  std::vector<int> q0, v0, nq, nv;
-};
-
-/// Why MuJoCo cannot take this model with jrgen's coordinates, or "".
+/// Why MuJoCo (or Pinocchio) cannot take this model with jrgen's
+/// coordinates as mapped here, or "".
 std::string mujoco_unsupported(const ir::Robot& robot);
 
 /// The URDF text MuJoCo reads (see above); `compiler_extra` is a list of

@@ -168,9 +168,15 @@ int run(int argc, char** argv, const ModelInfo& info, const GeneratedApi& g) {
   const bool floating = !robot.joints.empty() && robot.joints[0].type == ir::JointType::Floating;
   benchmark::AddCustomContext("base", floating ? "floating" : "fixed");
 #ifdef JRGEN_PEERS_PINOCCHIO
-  std::vector<std::string> joints(g.joint_names, g.joint_names + g.njoints);
-  const std::string pin_note =
-      g.nc ? "closed loops" : pinocchio_cases(info.urdf, floating, joints, g, s, cases);
+  std::string pin_note = mujoco_unsupported(robot);
+  if (pin_note.empty()) {
+    Eigen::VectorXd damping(g.nv);
+    int at = 0;
+    for (const ir::Joint& j : robot.joints)
+      for (int k = 0; k < ir::joint_nv(j.type); ++k) damping[at++] = j.damping;
+    pin_note = pinocchio_cases(info.urdf, layout_of(g), damping, s, cases);
+  }
+  std::fprintf(stderr, "%-10s pinocchio: %s\n", info.name, pin_note.c_str());
   benchmark::AddCustomContext("pinocchio", pin_note);
 #endif
   benchmark::AddCustomContext("model", info.name);

@@ -38,6 +38,13 @@ struct GeneratedApi {
   void (*constraint_gamma)(const double* q, const double* v, double* gamma);
 };
 
+/// The joints of the generated solver (its joint_names, joint_q_index,
+/// joint_v_index), user order.
+struct JointLayout {
+  std::vector<std::string> names;
+  std::vector<int> q0, v0, nq, nv;
+};
+
 struct ModelInfo {
   const char* name;         ///< model name
   const char* urdf;         ///< the URDF the solver was generated from
@@ -60,9 +67,11 @@ struct Case {
 };
 
 #ifdef JRGEN_PEERS_PINOCCHIO
-/// Pinocchio's cases (pinocchio_side.cpp), or why it cannot run.
-std::string pinocchio_cases(const std::string& urdf, bool floating_base, const std::vector<std::string>& joints,
-                            const GeneratedApi& api, const State& state, std::vector<Case>& cases);
+/// Pinocchio's cases (pinocchio_side.cpp) on the URDF's model, with the
+/// joints' damping per velocity coordinate in jrgen's layout; returns "ok" or
+/// why it cannot run.
+std::string pinocchio_cases(const std::string& urdf, const JointLayout& joints, const Eigen::VectorXd& damping,
+                            const State& state, std::vector<Case>& cases);
 #endif
 
 /// Options: --quick (short timings, for a smoke run); the rest goes to
