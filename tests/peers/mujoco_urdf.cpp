@@ -9,7 +9,7 @@
 namespace jrgen::peers {
 
 std::string mujoco_unsupported(const ir::Robot& robot) {
-  if (!robot.cuts.empty()) return "closed loops (MuJoCo's constraint solver is off)";
+  if (!robot.cuts.empty()) return "closed loops (the peers run without constraints)";
   for (const ir::Joint& j : robot.joints) {
     if (j.type == ir::JointType::Ball || j.type == ir::JointType::Planar)
       return std::string("a ") + ir::joint_type_name(j.type) + " joint (" + j.name +
