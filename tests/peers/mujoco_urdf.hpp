@@ -5,7 +5,8 @@
 // <gazebo> and <transmission> removed (the meshes are not shipped) and a
 // <mujoco><compiler .../></mujoco> element added: discardvisual="true",
 // fusestatic="true" (MuJoCo's default for URDF; jrgen fuses fixed joints too),
-// plus the model's extra attributes (e.g. balanceinertia, boundmass).
+// plus the model's extra attributes (e.g. balanceinertia, boundmass) and
+// those of the environment variable JRGEN_PEERS_MJ_COMPILER (peers_core.cpp).
 //
 // Options: contacts, joint limits, equality constraints, friction loss, the
 // constraint solver, actuation and sensors disabled; passive forces (joint

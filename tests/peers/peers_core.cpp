@@ -5,6 +5,7 @@
 #include <Eigen/QR>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <random>
 
@@ -111,7 +112,11 @@ std::string add_mujoco_case(const ModelInfo& info, const ir::Robot& robot, const
                             std::vector<Case>& cases) {
   const std::string why = mujoco_unsupported(robot);
   if (!why.empty()) return why;
-  auto mj = std::make_shared<MujocoForward>(info.urdf, info.mj_compiler, info.mj_urdf, layout_of(g));
+  // JRGEN_PEERS_MJ_COMPILER: more compiler attributes, for experiments
+  // (e.g. fusestatic=false; a later attribute replaces an earlier one).
+  std::string compiler = info.mj_compiler;
+  if (const char* extra = std::getenv("JRGEN_PEERS_MJ_COMPILER")) compiler += std::string(" ") + extra;
+  auto mj = std::make_shared<MujocoForward>(info.urdf, compiler, info.mj_urdf, layout_of(g));
   if (!mj->ok()) return mj->error();
   mj->set_state(s.q.data(), s.v.data(), s.tau.data());
   const int n = g.nv;
