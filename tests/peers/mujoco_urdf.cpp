@@ -3,6 +3,9 @@
 #include <mujoco/mujoco.h>
 #include <tinyxml.h>
 
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <cstdio>
 #include <fstream>
 #include <sstream>
 
@@ -21,13 +24,68 @@ std::string mujoco_unsupported(const ir::Robot& robot) {
   return "";
 }
 
+namespace {
+
+Eigen::Vector3d read3(const TiXmlElement* e, const char* attr) {
+  Eigen::Vector3d x = Eigen::Vector3d::Zero();
+  if (const char* t = e ? e->Attribute(attr) : nullptr) std::istringstream(t) >> x[0] >> x[1] >> x[2];
+  return x;
+}
+
+std::string num(double x) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", x);
+  return buf;
+}
+
+// Rewrites an <inertial> in its principal axes: <origin rpy> the rotation of
+// the eigenvectors (computed here in double), <inertia> diagonal.  The same
+// inertia, but MuJoCo then has nothing to diagonalize: its own iterative
+// diagonalization of a full tensor stops near 1e-10 relative, and a tensor
+// whose principal moments violate the triangle inequality by that much is
+// rejected (URDF rpy: R = Rz(yaw) Ry(pitch) Rx(roll)).
+void principal_axes(TiXmlElement* inertial) {
+  TiXmlElement* origin = inertial->FirstChildElement("origin");
+  TiXmlElement* inertia = inertial->FirstChildElement("inertia");
+  if (!inertia) return;
+  auto get = [&](const char* a) {
+    double x = 0;
+    inertia->QueryDoubleAttribute(a, &x);
+    return x;
+  };
+  Eigen::Matrix3d I;
+  I << get("ixx"), get("ixy"), get("ixz"), get("ixy"), get("iyy"), get("iyz"), get("ixz"), get("iyz"), get("izz");
+  const Eigen::Vector3d rpy = read3(origin, "rpy");
+  const Eigen::Matrix3d R = (Eigen::AngleAxisd(rpy.z(), Eigen::Vector3d::UnitZ()) *
+                             Eigen::AngleAxisd(rpy.y(), Eigen::Vector3d::UnitY()) *
+                             Eigen::AngleAxisd(rpy.x(), Eigen::Vector3d::UnitX()))
+                                .toRotationMatrix();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(R * I * R.transpose());
+  Eigen::Matrix3d V = eig.eigenvectors();
+  if (V.determinant() < 0) V.col(2) = -V.col(2);
+  const Eigen::Vector3d ypr = V.eulerAngles(2, 1, 0);  // V = Rz(ypr0) Ry(ypr1) Rx(ypr2)
+  TiXmlElement o("origin");
+  const Eigen::Vector3d xyz = read3(origin, "xyz");
+  o.SetAttribute("xyz", num(xyz[0]) + " " + num(xyz[1]) + " " + num(xyz[2]));
+  o.SetAttribute("rpy", num(ypr[2]) + " " + num(ypr[1]) + " " + num(ypr[0]));
+  if (origin) inertial->RemoveChild(origin);
+  inertial->InsertEndChild(o);
+  const char* names[6] = {"ixx", "iyy", "izz", "ixy", "ixz", "iyz"};
+  for (int k = 0; k < 6; ++k) inertia->SetAttribute(names[k], k < 3 ? num(eig.eigenvalues()[k]) : "0");
+}
+
+}  // namespace
+
 std::string mujoco_urdf_text(const std::string& urdf_path, const std::string& compiler_extra) {
   TiXmlDocument doc(urdf_path.c_str());
   if (!doc.LoadFile()) return "";
   TiXmlElement* robot = doc.RootElement();
   for (TiXmlElement* link = robot->FirstChildElement("link"); link; link = link->NextSiblingElement("link"))
+  {
     for (const char* tag : {"visual", "collision"})
       while (TiXmlElement* e = link->FirstChildElement(tag)) link->RemoveChild(e);
+    if (TiXmlElement* inertial = link->FirstChildElement("inertial")) principal_axes(inertial);
+  }
   for (const char* tag : {"gazebo", "transmission"})
     while (TiXmlElement* e = robot->FirstChildElement(tag)) robot->RemoveChild(e);
   TiXmlElement compiler("compiler");

@@ -2,7 +2,9 @@
 //
 // MuJoCo reads the URDF itself (mj_loadXML), so this is also an independent
 // reading of the model.  The copy it reads has <visual>, <collision>,
-// <gazebo> and <transmission> removed (the meshes are not shipped) and a
+// <gazebo> and <transmission> removed (the meshes are not shipped), every
+// <inertial> rewritten in its principal axes (the same inertia; see
+// principal_axes in mujoco_urdf.cpp), and a
 // <mujoco><compiler .../></mujoco> element added: discardvisual="true",
 // fusestatic="true" (MuJoCo's default for URDF; jrgen fuses fixed joints too),
 // plus the model's extra attributes (e.g. balanceinertia, boundmass) and
