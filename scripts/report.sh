@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
 # The solver report (docs/report.md): builds what it needs in Release (-O3)
-# and writes BUILD_DIR/report/report.md with its plots.
+# and writes BUILD_DIR/report/report.md with its plots, including the full
+# forward-dynamics table (forward_dynamics against MuJoCo's mj_forward, each
+# qdd against the independent reference; scripts/peers_fd.sh does the same
+# on the real robots' URDFs, with Pinocchio optional).
 #
 #   scripts/report.sh [BUILD_DIR] [--quick | --full] [--native] [-o OUT_DIR]
 #
@@ -19,7 +22,7 @@ while [ $# -gt 0 ]; do
     --full) set="full" ;;
     --native) native="ON" ;;
     -o) out="$2"; shift ;;
-    -h|--help) sed -n '2,12p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,15p' "$0"; exit 0 ;;
     -*) echo "report.sh: unknown option $1" >&2; exit 2 ;;
     *) build="$1" ;;
   esac

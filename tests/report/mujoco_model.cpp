@@ -47,7 +47,8 @@ void write_body(const topology::Tree& tree, int b, int indent, std::ostringstrea
   if (R.determinant() < 0) R.col(2) = -R.col(2);
   out << pad << "  <inertial pos=\"" << vec(in.com) << "\" quat=\"" << quat(R) << "\" mass=\"" << num(in.mass)
       << "\" diaginertia=\"" << vec(eig.eigenvalues()) << "\"/>\n";
-  const std::string common = "\" pos=\"0 0 0\" armature=\"0\" damping=\"0\" limited=\"false\"";
+  const std::string common =
+      "\" pos=\"0 0 0\" armature=\"0\" damping=\"" + num(body.damping) + "\" limited=\"false\"";
   switch (body.type) {
     case ir::JointType::Revolute:
     case ir::JointType::Continuous:
@@ -62,7 +63,9 @@ void write_body(const topology::Tree& tree, int b, int indent, std::ostringstrea
       out << pad << "  <joint name=\"" << joint_name(b) << "\" type=\"ball" << common << "/>\n";
       break;
     case ir::JointType::Floating:
-      out << pad << "  <freejoint name=\"" << joint_name(b) << "\"/>\n";
+      // <joint type="free"> rather than <freejoint>: it takes damping.
+      out << pad << "  <joint name=\"" << joint_name(b) << "\" type=\"free\" damping=\"" << num(body.damping)
+          << "\"/>\n";
       break;
     case ir::JointType::Planar:
       out << pad << "  <joint name=\"" << joint_name(b, "_1") << "\" type=\"slide\" axis=\"" << vec(body.e1)
@@ -105,6 +108,11 @@ MujocoModel::MujocoModel(const topology::Tree& tree, const std::string& mjcf_pat
     error_ = err;
     return;
   }
+  bool damping = false;
+  for (int i = 0; i < m_->nv; ++i) damping = damping || m_->dof_damping[i] != 0;
+  m_->opt.disableflags = mjDSBL_CONSTRAINT | mjDSBL_EQUALITY | mjDSBL_FRICTIONLOSS | mjDSBL_LIMIT |
+                         mjDSBL_CONTACT | mjDSBL_ACTUATION | mjDSBL_CLAMPCTRL | mjDSBL_SENSOR |
+                         mjDSBL_WARMSTART | (damping ? 0 : mjDSBL_PASSIVE);
   d_ = mj_makeData(m_);
   // v_jrgen = P v_mujoco: a permutation, with the free joints' linear part
   // rotated from world to the joint frame.
@@ -138,6 +146,22 @@ MujocoModel::~MujocoModel() {
 int MujocoModel::nv() const { return m_ ? m_->nv : 0; }
 
 void MujocoModel::set_configuration(const Eigen::VectorXd& q) {
+  set_qpos(q);
+  for (int i = 0; i < m_->nv; ++i) d_->qvel[i] = 0;
+  mj_forward(m_, d_);
+}
+
+void MujocoModel::set_state(const Eigen::VectorXd& q, const Eigen::VectorXd& v, const Eigen::VectorXd& tau) {
+  set_qpos(q);
+  Eigen::Map<Eigen::VectorXd>(d_->qvel, m_->nv) = P_.transpose() * v;
+  Eigen::Map<Eigen::VectorXd>(d_->qfrc_applied, m_->nv) = P_.transpose() * tau;
+}
+
+void MujocoModel::forward() { mj_forward(m_, d_); }
+
+Eigen::VectorXd MujocoModel::qdd() const { return P_ * Eigen::Map<const Eigen::VectorXd>(d_->qacc, m_->nv); }
+
+void MujocoModel::set_qpos(const Eigen::VectorXd& q) {
   for (int b = 0; b < static_cast<int>(tree_.bodies.size()); ++b) {
     const topology::Body& body = tree_.bodies[b];
     const int j = mj_name2id(m_, mjOBJ_JOINT, joint_name(b).c_str());
@@ -171,8 +195,6 @@ void MujocoModel::set_configuration(const Eigen::VectorXd& q) {
         break;
     }
   }
-  for (int i = 0; i < m_->nv; ++i) d_->qvel[i] = 0;
-  mj_forward(m_, d_);
 }
 
 Eigen::MatrixXd MujocoModel::dense_mass_matrix() const {

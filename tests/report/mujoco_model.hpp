@@ -6,6 +6,12 @@
 // velocity map v_jrgen = P v_mujoco used to compare the two mass matrices:
 // M_mujoco = P^T M_jrgen P.
 //
+// For the full forward-dynamics table the model also carries the joints'
+// damping, and forward() runs mj_forward with contacts, limits, equality
+// constraints, friction loss, the constraint solver, actuation and sensors
+// disabled (passive forces only when there is damping), gravity MuJoCo's
+// default (0, 0, -9.81), jrgen's default too.
+//
 // Joint types: revolute/continuous -> hinge, prismatic -> slide, ball -> ball,
 // floating -> freejoint (root bodies only), planar -> slide e1, slide e2,
 // hinge about the normal (MuJoCo applies a body's joints in order: translate,
@@ -45,6 +51,14 @@ class MujocoModel {
   /// v_jrgen = P v_mujoco.
   const Eigen::MatrixXd& P() const { return P_; }
 
+  /// Full forward dynamics: qpos from q, qvel = P^T v, qfrc_applied = P^T tau
+  /// (P is orthogonal: a permutation with rotation blocks).
+  void set_state(const Eigen::VectorXd& q_jrgen, const Eigen::VectorXd& v_jrgen, const Eigen::VectorXd& tau_jrgen);
+  /// The timed call: mj_forward.
+  void forward();
+  /// qdd = P qacc of the last forward(), jrgen's layout.
+  Eigen::VectorXd qdd() const;
+
   /// The timed call: mj_factorM (L^T D L of qM into qLD) and mj_solveM.
   void factor_and_solve(const double* rhs, double* x);
 
@@ -54,6 +68,7 @@ class MujocoModel {
   mjData_* d_ = nullptr;
   std::string error_;
   Eigen::MatrixXd P_;
+  void set_qpos(const Eigen::VectorXd& q_jrgen);
 };
 
 }  // namespace jrgen::report

@@ -21,6 +21,13 @@
 //   gen_ldlt     the generated solve_augmented (--method ldlt)
 //   mujoco       mj_factorM + mj_solveM on MuJoCo's own M (trees only)
 //
+// Full forward dynamics (issue 20), on the same q, v, tau:
+//   fd/jrgen     the generated forward_dynamics (--method llt)
+//   fd/mujoco    mj_forward (mujoco_model.hpp; trees only)
+// each with its qdd error against the independent reference (fd_reference.hpp:
+// the repository's world-frame M, h, Phiq, gamma, eq. (17) in long double),
+// counter err_ref, and against jrgen's, err_jrgen.
+//
 // Accuracy (once per method, on its output): err_qdd = |qdd - qdd_ref| /
 // |qdd_ref|, err_lambda likewise, err_f = |Phiq^T (lambda - lambda_ref)| /
 // |Phiq^T lambda_ref| (lambda depends on how rows are scaled, Phiq^T lambda
@@ -51,6 +58,7 @@
 #include "alg_s.hpp"
 #include "analysis/constraints.hpp"
 #include "analysis/runtime_model.hpp"
+#include "fd_reference.hpp"
 #include "mujoco_model.hpp"
 #include "topology/topology.hpp"
 #include "urdf/urdf_reader.hpp"
@@ -386,6 +394,45 @@ void timing_loop(benchmark::State& state, Fn&& fn) {
   }
 }
 
+// ---- full forward dynamics ---------------------------------------------------------
+
+struct FdCase {
+  std::string name;
+  std::function<void()> run;  ///< the timed call
+  double err_ref = 0, err_jrgen = 0;
+  bool pass = true;
+};
+
+// fd/jrgen and (with a MuJoCo model) fd/mujoco, their errors measured once.
+// The check catches a wrong mapping or formula (an O(1) error) in jrgen's
+// call, not rounding: the accuracy tests bound that (tests/generated).
+std::vector<FdCase> forward_dynamics_cases(const ir::Robot& robot, const Problem& p, const GeneratedApi& g,
+                                           MujocoModel* mj) {
+  const Eigen::VectorXd ref = reference_qdd(robot, p.q, p.v, p.tau, Eigen::Vector3d(0, 0, -9.81));
+  auto qdd = std::make_shared<Eigen::VectorXd>(p.nv);
+  auto lambda = std::make_shared<Eigen::VectorXd>(p.nc);
+  std::vector<FdCase> out;
+  FdCase jr{"fd/jrgen", [&g, &p, qdd, lambda] {
+              if (g.forward_dynamics(p.q.data(), p.v.data(), p.tau.data(), qdd->data(),
+                                     p.nc ? lambda->data() : nullptr))
+                std::abort();
+            }};
+  jr.run();
+  const Eigen::VectorXd qdd_jr = *qdd;
+  jr.err_ref = relative_error(qdd_jr, ref);
+  jr.pass = jr.err_ref < 1e-6;
+  out.push_back(jr);
+  if (mj && mj->ok()) {
+    mj->set_state(p.q, p.v, p.tau);
+    FdCase m{"fd/mujoco", [mj] { mj->forward(); }};
+    m.run();
+    m.err_ref = relative_error(mj->qdd(), ref);
+    m.err_jrgen = relative_error(mj->qdd(), qdd_jr);
+    out.push_back(m);
+  }
+  return out;
+}
+
 struct Options {
   bool quick = false, steps = false, mujoco = true;
   std::string json;
@@ -552,6 +599,12 @@ int run(int argc, char** argv, const ModelInfo& info, const GeneratedApi& llt, c
     }
   }
   benchmark::AddCustomContext("mujoco_check", mj_status);
+  std::vector<FdCase> fd = forward_dynamics_cases(robot, p, llt, mj.get());
+  for (const FdCase& c : fd) {
+    std::fprintf(stderr, "%-12s %-10s err vs reference %.2e  vs jrgen %.2e%s\n", info.name, c.name.c_str(),
+                 c.err_ref, c.err_jrgen, c.pass ? "" : "  FAIL");
+    all_pass = all_pass && c.pass;
+  }
 
   // Register the timings: every method of this model in this one process.
   const auto us = benchmark::kMicrosecond;
@@ -561,6 +614,19 @@ int run(int argc, char** argv, const ModelInfo& info, const GeneratedApi& llt, c
     benchmark::RegisterBenchmark(m.name.c_str(), [mp, pp, &p](benchmark::State& state) {
       timing_loop(state, mp->solve);
       add_counters(state, *mp, pp ? *pp : p);
+    })->Unit(us);
+  }
+  for (const FdCase& c : fd) {
+    const FdCase* cp = &c;
+    benchmark::RegisterBenchmark(c.name.c_str(), [cp, &p](benchmark::State& state) {
+      for (auto _ : state) {
+        cp->run();
+        benchmark::ClobberMemory();
+      }
+      state.counters["nv"] = p.nv;
+      state.counters["nc"] = p.nc;
+      state.counters["err_ref"] = cp->err_ref;
+      state.counters["err_jrgen"] = cp->err_jrgen;
     })->Unit(us);
   }
   // Per-step timings (Table 5): Alg-D and Alg-S one step at a time on the

@@ -10,6 +10,7 @@ namespace jrgen::report {
 /// The generated API (INTERFACE.md section 4) of one solver, as plain pointers.
 struct GeneratedApi {
   int nq, nv, nc, njoints;
+  int (*forward_dynamics)(const double* q, const double* v, const double* tau, double* qdd, double* lambda);
   int (*solve_augmented)(const double* M, const double* Q, const double* Phiq, const double* gamma,
                          double* qdd, double* lambda);
   void (*mass_matrix)(const double* q, double* M);

@@ -17,7 +17,7 @@ int solve_augmented_steps(const double* M, const double* Q, const double* Phiq, 
 
 #define JRGEN_REPORT_API(ns)                                                                          \
   jrgen::report::GeneratedApi {                                                                       \
-    ns::nq, ns::nv, ns::nc, ns::njoints, &ns::solve_augmented, &ns::mass_matrix, &ns::bias_forces,     \
+    ns::nq, ns::nv, ns::nc, ns::njoints, &ns::forward_dynamics, &ns::solve_augmented, &ns::mass_matrix, &ns::bias_forces,     \
         &ns::constraints, &ns::constraint_jacobian, &ns::constraint_gamma, &ns::last_error,           \
         &ns::solve_augmented_steps                                                                    \
   }

@@ -98,7 +98,7 @@ def parse(name, data):
          "cond_M": float(ctx["cond1_M"]), "cond_W": float(ctx["cond1_W"]), "state": ctx.get("state", ""),
          "mujoco_check": ctx.get("mujoco_check", ""), "checks": ctx.get("checks", ""),
          "compile_flags": ctx.get("compile_flags", "unknown"),
-         "methods": {}, "steps": {}, "prefix": {}}
+         "methods": {}, "steps": {}, "prefix": {}, "fd": {}}
     for b in data["benchmarks"]:
         if b.get("aggregate_name") != "median":
             continue
@@ -106,7 +106,9 @@ def parse(name, data):
         # CPU time of the process, microseconds (Unit(us)): robust to other
         # processes sharing the machine, equal to real_time on a quiet one.
         t = b["cpu_time"]
-        if bname.startswith("step/"):
+        if bname.startswith("fd/"):
+            m["fd"][bname[3:]] = dict(time=t, err_ref=b.get("err_ref"), err_jrgen=b.get("err_jrgen"))
+        elif bname.startswith("step/"):
             _, meth, step = bname.split("/")
             m["steps"].setdefault(meth, {})[step] = t
         elif bname.startswith("prefix/"):
@@ -221,6 +223,29 @@ plot {', '.join(plots)}
     return slopes, files
 
 
+def write_fd_table(models, w):
+    """The full forward-dynamics table: the generated forward_dynamics against
+    MuJoCo's mj_forward on the same q, v, tau (report_core.cpp, fd/...)."""
+    rows = [m for m in models if m["fd"]]
+    if not rows:
+        return
+    w("\n## Full forward dynamics: forward_dynamics against MuJoCo's mj_forward\n")
+    w("The whole call on the same q, v, tau: jrgen's generated `forward_dynamics` (kinematics, M, h, Phiq, "
+      "gamma and the solve) and MuJoCo's `mj_forward` (contacts, limits, constraint solver, actuation and "
+      "sensors off, passive forces on for damping; trees only) on the MJCF written from jrgen's topology. "
+      "Median CPU time per call; errors of qdd relative to the independent reference (the repository's "
+      "world-frame M, h, Phiq and gamma, eq. (17) solved in long double; its own error is about eps cond(M)).\n")
+    w("| model | nv | nc | jrgen forward_dynamics [µs] | MuJoCo mj_forward [µs] | MuJoCo / jrgen | "
+      "jrgen error | MuJoCo error | MuJoCo vs jrgen |")
+    w("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for m in rows:
+        jr, mj = m["fd"].get("jrgen"), m["fd"].get("mujoco")
+        ratio = f"{mj['time'] / jr['time']:.2f}" if jr and mj and jr["time"] else "—"
+        w(f"| {m['name']} | {m['nv']} | {m['nc']} | {fmt_t(jr and jr['time'])} | {fmt_t(mj and mj['time'])} | "
+          f"{ratio} | {fmt_e(jr and jr['err_ref'])} | {fmt_e(mj and mj['err_ref'])} | "
+          f"{fmt_e(mj and mj['err_jrgen'])} |")
+
+
 def write_report(models, out, args, failures, notes, elapsed):
     lines = []
     w = lines.append
@@ -288,6 +313,8 @@ def write_report(models, out, args, failures, notes, elapsed):
     w("\nFor MuJoCo the error is measured against the extended-precision solve of MuJoCo's own M "
       "(its free-joint linear velocity is in the world frame, jrgen's in the joint frame), and "
       "λ does not apply.\n")
+    write_fd_table(models, w)
+    w("")
 
     # The paper's Tables 4 and 5.
     h = next((m for m in models if m["name"] == "hmmwv14"), None)
@@ -403,6 +430,15 @@ def main():
         for meth, r in m["methods"].items():
             if not r["passed"]:
                 failures.append(f"{m['name']}: {meth}: qdd error {r['err_qdd']:.2e} above its bound {r['bound']:.2e}")
+        if "jrgen" not in m["fd"]:
+            failures.append(f"{m['name']}: no full forward-dynamics timing")
+        elif not m["fd"]["jrgen"]["err_ref"] < 1e-6:
+            failures.append(f"{m['name']}: forward_dynamics qdd error {m['fd']['jrgen']['err_ref']:.2e} "
+                            "against the reference")
+        mjfd = m["fd"].get("mujoco")
+        if mjfd and not mjfd["err_jrgen"] < 1e-6:
+            notes.append(f"{m['name']}: MuJoCo's mj_forward differs from jrgen's forward_dynamics by "
+                         f"{mjfd['err_jrgen']:.1e}")
         if m["mujoco_check"].endswith("(FAIL)"):
             failures.append(f"{m['name']}: MuJoCo mass matrix differs: {m['mujoco_check']}")
     err_files, scaling_files = write_report(models, args.out, args, failures, notes, time.time() - t0)
