@@ -178,6 +178,7 @@ std::vector<bool> Program::live() const {
 }
 
 std::string Program::operand(Value v) const {
+  if (v.is_constant() && !std::isfinite(v.constant())) non_finite_ = true;
   if (v.is_constant()) return v.constant() < 0.0 ? fmt::format("({})", num(v.constant())) : num(v.constant());
   const Node& n = nodes_[v.node()];
   return n.op == Op::kInput ? n.text : fmt::format("t{}", v.node());
@@ -247,6 +248,7 @@ std::vector<std::pair<std::string, OpCount>> Program::count() const {
 }
 
 Program::Emitted Program::emit(const std::string& prefix) const {
+  non_finite_ = false;
   const std::vector<bool> is_live = live();
   // Spill slots: live computed nodes read in a function other than their own.
   std::vector<int> slot(nodes_.size(), -1);
@@ -316,6 +318,7 @@ Program::Emitted Program::emit(const std::string& prefix) const {
     out.calls.push_back(functions_[f].name);
   }
   out.block_ops = count();
+  out.finite = !non_finite_;
   return out;
 }
 

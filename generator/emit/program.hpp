@@ -99,6 +99,10 @@ class Program {
     std::vector<std::pair<std::string, OpCount>> block_ops;  ///< per block, in order
     OpCount total;
     long long statements = 0;
+    /// false when a constant of the code is not finite (a URDF's huge but
+    /// representable numbers overflowing in a derived constant): the code
+    /// would not compile, and the caller takes the runtime's route.
+    bool finite = true;
   };
   /// The live nodes (those the outputs need), as functions.  `prefix` starts
   /// each function's text (e.g. an attribute).
@@ -161,6 +165,7 @@ class Program {
   std::string base_name_, base_doc_;
   int parts_ = 1;
   std::unordered_map<std::string, int> index_;
+  mutable bool non_finite_ = false;  // set by operand() on a constant inf or nan
 };
 
 // ---- 3-vectors and 3x3 matrices of Values -------------------------------------

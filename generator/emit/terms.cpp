@@ -117,8 +117,14 @@ Built composite_program(const topology::Tree& t, const Options& options, bool fo
   return b;
 }
 
+// Built, within the statement limit, and with finite constants only.
+bool fits(const Built& b, long long limit) {
+  return !b.definitions.empty() && b.emitted.statements <= limit && b.emitted.finite;
+}
+
 // "N statements", or for a program not built because it could not fit, "too many".
 std::string size_text(const Built& b) {
+  if (!b.definitions.empty() && !b.emitted.finite) return "a constant that overflows";
   return b.definitions.empty() ? "too many statements" : fmt::format("{} statements", b.emitted.statements);
 }
 
@@ -281,8 +287,7 @@ TermsBlock tree_terms(const topology::Tree& t, const Options& options, long long
   const Built aba = 100LL * t.nv <= limit ? articulated_program(t, options) : Built{};
   const Built crb = t.nnz() <= limit ? composite_program(t, options) : Built{};
   const long long aba_flops = flops(aba.emitted.total), crb_flops = flops(crb.emitted.total) + solve_flops;
-  const bool aba_fits = !aba.definitions.empty() && aba.emitted.statements <= limit;
-  const bool crb_fits = !crb.definitions.empty() && crb.emitted.statements <= limit;
+  const bool aba_fits = fits(aba, limit), crb_fits = fits(crb, limit);
   if (!aba_fits && !crb_fits) {
     TermsBlock block = runtime_block(t, options, solve_flops);
     block.summary += fmt::format(" (the specialized programs would hold {} and {}, the limit is {})",
@@ -319,7 +324,7 @@ PieceTerms piece_terms(const topology::Tree& t, const Options& options) {
       }
     for (std::size_t k = 0; k < dense.size(); ++k) program.output(fmt::format("M[{}]", k), dense[k]);
     const Program::Emitted e = program.emit();
-    if (e.statements <= limit) {
+    if (e.statements <= limit && e.finite) {
       pieces.definitions += driver(e, "mass_matrix_terms", "const double* q, double* M", "q, M", "g_mass_spill");
       pieces.mass_matrix_body = "  mass_matrix_terms(q, M);  // specialized (dense, user order)\n";
     }
@@ -338,7 +343,7 @@ PieceTerms piece_terms(const topology::Tree& t, const Options& options) {
     const std::vector<Value> h = bias_forces(program, t, frames, motion, options.gravity);
     for (int j = 0; j < t.nv; ++j) program.output(fmt::format("h[{}]", t.dof_user[j]), h[j]);
     const Program::Emitted e = program.emit();
-    if (e.statements <= limit) {
+    if (e.statements <= limit && e.finite) {
       pieces.definitions +=
           "\n" + driver(e, "bias_forces_terms", "const double* q, const double* v, double* h", "q, v, h", "g_bias_spill");
       pieces.bias_forces_body = "  bias_forces_terms(q, v, h);  // specialized (user order)\n";
@@ -363,7 +368,7 @@ TermsBlock loop_terms(const topology::Tree& t, const Options& options) {
   const long long limit = terms_limit();
   const Built b = t.nnz() <= limit && 100LL * t.nv <= limit ? loop_program(t, options) : Built{};
   TermsBlock block;
-  if (b.definitions.empty() || b.emitted.statements > limit) {
+  if (!fits(b, limit)) {
     block.fd_body = fmt::format(
         "  jr::kinematics(kModel, g_bodies, q);\n"
         "  // M, eq. (18), by the composite-rigid-body recursion, eq. (14).\n"
@@ -429,7 +434,7 @@ ConstraintPieces constraint_pieces(const topology::Tree& t) {
     if (which == 2)
       for (int r = 0; r < nc; ++r) program.output(fmt::format("gamma[{}]", r), c.gamma[r]);
     const Program::Emitted e = program.emit();
-    if (e.statements > limit) return false;
+    if (e.statements > limit || !e.finite) return false;
     pieces.definitions += "\n" + driver(e, name + "_terms", params, args, "g_" + name + "_spill");
     return true;
   };
