@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <ostream>
 #include <random>
 #include <string>
 #include <vector>
@@ -24,6 +25,7 @@ using jrgen::testing::kEps;
 struct Pair {
   std::string specialized, runtime;
 };
+void PrintTo(const Pair& p, std::ostream* os) { *os << p.specialized << " vs " << p.runtime; }
 
 const GeneratedSolver& solver(const std::string& target) {
   for (const GeneratedSolver& s : jrgen::testing::generated_solvers())

@@ -2,6 +2,7 @@
 //
 // Solver of eq. (17) for 'fourbar' (Negrut, Serban & Potra 1997, Section 4.3):
 // closed loops, nq = 3, nv = 3, 1 cut joint(s), nc = 2 rows kept (3 redundant dropped).
+// forward_dynamics: specialized kinematics, M, h, Phiq and gamma (203 operations), then Steps 1-4.
 //
 // Lemma 2 order: the 3 bodies are renumbered so that descendants come
 // before ancestors; the packed factor L then has no fill-in and its column j
@@ -26,7 +27,6 @@
 #include <cstdio>
 
 #include <jrgen/runtime.hpp>
-
 namespace fourbar {
 
 const char* const joint_names[njoints] = {
@@ -100,11 +100,11 @@ constexpr double kPivotTolerance = 1e-14;
 constexpr double kSpreadLimit = 1e-13;
 
 // ---- Workspace (per thread, allocated once) ----------------------------------
-thread_local jr::BodyState g_bodies[3];
+[[maybe_unused]] thread_local jr::BodyState g_bodies[3];  // the runtime's terms (fallback, large models)
 thread_local double g_L[6];  // packed M, factored in place
 thread_local double g_Dinv[3];  // inverse pivots
 thread_local double g_z[3];     // right-hand side and solution, Lemma 2 order
-thread_local jr::BodyMotion g_motion[3];
+[[maybe_unused]] thread_local jr::BodyMotion g_motion[3];  // the runtime's constraint terms (fallback)
 thread_local double g_T[6];     // packed Phiq, cut row by cut row
 thread_local double g_Tr[6];    // T = L^-1 Phiq^T by dofs (Step 3.1)
 thread_local double g_V[6];     // D^-1 U (Step 3.2)
@@ -420,6 +420,709 @@ void step4_backward(const double* __restrict L, const double* __restrict Dinv, d
   z[0] = z[0] / L[0] - (L[2] * z[2] + L[1] * z[1]);
 }
 
+// ---- forward_dynamics: specialized kinematics, M, Q = tau - h, Phiq and gamma ----
+// Joint frames, inertias, cut frames and gravity folded in as constants, the
+// kinematics computed once for all terms; M and Phiq go straight into the
+// packed layouts that Steps 1 and 3 read.
+// forward_dynamics: specialized kinematics, M, Q = tau - h, Phiq, gamma
+void loop_terms_part(const double* q, const double* v, const double* tau, double* L, double* z, double* T, double* gamma) {
+  // Joint transforms X_PC and motion subspaces S (constants folded, sin/cos once per joint).
+  // body 0: joint transform X_PC of 'joint_C' (revolute)
+  const double t1 = std::sin(q[2]);
+  const double t2 = std::cos(q[2]);
+  // body 1: joint transform X_PC of 'joint_B' (revolute)
+  const double t5 = std::sin(q[1]);
+  const double t6 = std::cos(q[1]);
+  // body 2: joint transform X_PC of 'joint_A' (revolute)
+  const double t9 = std::sin(q[0]);
+  const double t10 = std::cos(q[0]);
+  // body 2: velocity and velocity-product acceleration of 'joint_A'
+  // body 1: velocity and velocity-product acceleration of 'joint_B'
+  const double t14 = v[0] * 0.4;
+  const double t15 = v[0] * 0.3;
+  const double t18 = t5 * t15;
+  const double t19 = t6 * t14;
+  const double t21 = t18 - t19;
+  const double t22 = t6 * t15;
+  const double t23 = t5 * t14;
+  const double t25 = t22 + t23;
+  const double t26 = v[0] + v[1];
+  const double t27 = v[1] * t25;
+  const double t28 = v[1] * t21;
+  // body 0: velocity and velocity-product acceleration of 'joint_C'
+  const double t31 = t26 * 0.5;
+  const double t32 = t26 * 0.9;
+  const double t34 = t21 - t31;
+  const double t35 = t25 + t32;
+  const double t36 = t1 * t35;
+  const double t37 = t2 * t34;
+  const double t38 = t36 + t37;
+  const double t39 = t2 * t35;
+  const double t40 = t1 * t34;
+  const double t42 = t39 - t40;
+  const double t43 = t26 + v[2];
+  const double t44 = v[2] * t42;
+  const double t45 = v[2] * t38;
+  const double t47 = t1 * t28;
+  const double t49 = t2 * t27;
+  const double t50 = t49 - t47;
+  const double t51 = t2 * t28;
+  const double t53 = t1 * t27;
+  const double t54 = -t53;
+  const double t55 = t54 - t51;
+  const double t56 = t44 + t50;
+  const double t57 = t55 - t45;
+  // M, eq. (18): composite inertias leaves first (eq. 14), packed as Step 1 factors it.
+  // body 0: composite inertia of 'joint_C' added to its parent
+  const double t58 = t1 * (-0.81);
+  const double t60 = t2 * (-0.81);
+  const double t61 = 1.62 - t58;
+  const double t62 = t60 + 0.9;
+  const double t63 = t61 + 0.9;
+  const double t64 = t62 + 0.5;
+  const double t70 = t60 * 0.5;
+  const double t71 = t58 * 0.9;
+  const double t73 = t70 - t71;
+  const double t74 = t73 * 2.0;
+  const double t75 = t74 + 1.9080000000000001;
+  const double t104 = t75 + 0.48604500000000006;
+  const double t105 = t104 + 0.7067166666670001;
+  // body 1: composite inertia of 'joint_B' added to its parent
+  const double t106 = t5 * t64;
+  const double t108 = t6 * t63;
+  const double t109 = t108 - t106;
+  const double t110 = t6 * t64;
+  const double t111 = t5 * t63;
+  const double t112 = t110 + t111;
+  const double t129 = t112 * 0.4;
+  const double t130 = t109 * 0.3;
+  const double t131 = t129 + t130;
+  const double t132 = t131 * 2.0;
+  const double t133 = t132 + 0.9500000000000001;
+  const double t160 = t105 + t133;
+  const double t161 = t160 + 0.083358333333;
+  // body 0: columns of M of 'joint_C' (eq. 18)
+  const double t162 = t2 * 0.81;
+  const double t163 = t1 * 0.81;
+  const double t164 = t162 * 0.5;
+  const double t165 = t163 * 0.9;
+  const double t166 = t165 - t164;
+  const double t167 = t166 + 0.48604500000000006;
+  const double t168 = t5 * t163;
+  const double t170 = t6 * t162;
+  const double t171 = t170 - t168;
+  const double t172 = t6 * t163;
+  const double t173 = t5 * t162;
+  const double t174 = t172 + t173;
+  const double t175 = t171 * 0.4;
+  const double t176 = t174 * 0.3;
+  const double t177 = t176 - t175;
+  const double t178 = t167 + t177;
+  // body 1: columns of M of 'joint_B' (eq. 18)
+  const double t182 = -t110;
+  const double t183 = t182 - t111;
+  const double t184 = t183 * 0.4;
+  const double t185 = t130 - t184;
+  const double t186 = t105 + t185;
+  // body 2: columns of M of 'joint_A' (eq. 18)
+  // Q = tau - h (Coriolis and centrifugal terms, gravity, joint damping), Lemma 2 order.
+  // body 2: acceleration of 'joint_A' with gravity
+  // body 1: acceleration of 'joint_B' with gravity
+  // body 0: acceleration of 'joint_C' with gravity
+  // body 0: Newton-Euler force of 'joint_C'
+  L[0] = 0.48604500000000006;
+  L[1] = t167;
+  L[2] = t178;
+  L[3] = t105;
+  L[4] = t186;
+  L[5] = t161;
+  const double t189 = t43 * (-0.81);
+  const double t190 = t38 * 1.8;
+  const double t191 = t42 * 1.8;
+  const double t192 = t190 - t189;
+  const double t197 = t43 * t191;
+  const double t199 = t43 * t192;
+  const double t200 = t42 * t192;
+  const double t201 = t38 * t191;
+  const double t202 = t201 - t200;
+  const double t203 = t56 * 1.8;
+  const double t204 = t57 * 1.8;
+  const double t205 = t56 * (-0.81);
+  const double t207 = t202 - t205;
+  const double t208 = t203 - t197;
+  const double t209 = t199 + t204;
+  // body 1: Newton-Euler force of 'joint_B'
+  const double t210 = t21 * 2.0;
+  const double t211 = t25 * 2.0;
+  const double t212 = t210 - t31;
+  const double t213 = t32 + t211;
+  const double t219 = t26 * t213;
+  const double t221 = t26 * t212;
+  const double t222 = t25 * t212;
+  const double t223 = t21 * t213;
+  const double t224 = t223 - t222;
+  const double t225 = t27 * 2.0;
+  const double t226 = t28 * 2.0;
+  const double t228 = t27 * 0.5;
+  const double t229 = t28 * 0.9;
+  const double t230 = -t229;
+  const double t231 = t230 - t228;
+  const double t232 = t224 + t231;
+  const double t233 = t225 - t219;
+  const double t234 = t221 - t226;
+  // body 2: Newton-Euler force of 'joint_A'
+  // body 0: bias forces of 'joint_C'
+  const double t244 = v[2] * 0.01;
+  const double t245 = t207 + t244;
+  const double t246 = t1 * t209;
+  const double t248 = t2 * t208;
+  const double t249 = t248 - t246;
+  const double t250 = t2 * t209;
+  const double t251 = t1 * t208;
+  const double t252 = t250 + t251;
+  const double t253 = t249 * 0.5;
+  const double t254 = t252 * 0.9;
+  const double t255 = t254 - t253;
+  const double t260 = t207 + t255;
+  const double t263 = t232 + t260;
+  const double t264 = t233 + t249;
+  const double t265 = t234 + t252;
+  // body 1: bias forces of 'joint_B'
+  const double t266 = v[1] * 0.01;
+  const double t267 = t263 + t266;
+  const double t268 = t5 * t265;
+  const double t270 = t6 * t264;
+  const double t271 = t270 - t268;
+  const double t272 = t6 * t265;
+  const double t273 = t5 * t264;
+  const double t274 = t272 + t273;
+  const double t275 = t271 * 0.4;
+  const double t276 = t274 * 0.3;
+  const double t277 = t276 - t275;
+  const double t287 = t263 + t277;
+  // body 2: bias forces of 'joint_A'
+  const double t292 = v[0] * 0.01;
+  const double t293 = t287 + t292;
+  const double t295 = tau[2] - t245;
+  z[0] = t295;
+  const double t297 = tau[1] - t267;
+  z[1] = t297;
+  const double t299 = tau[0] - t293;
+  // Phiq (packed, Lemma 3: each cut's rows touch only the dofs on its paths) and gamma.
+  // cut 'joint_D' (revolute): bodies 0 and -1, in the coordinates of its frame on k
+  z[2] = t299;
+  const double t300 = t1 * 0.5;
+  const double t301 = t2 * 0.9;
+  const double t302 = t300 + t301;
+  const double t303 = t2 * 0.5;
+  const double t304 = t1 * 0.9;
+  const double t306 = t303 - t304;
+  const double t307 = -t302;
+  const double t308 = 0.9 - t306;
+  const double t309 = t1 * t5;
+  const double t311 = t2 * t6;
+  const double t312 = t311 - t309;
+  const double t313 = t1 * t6;
+  const double t314 = t2 * t5;
+  const double t315 = t313 + t314;
+  const double t317 = -t313;
+  const double t318 = t317 - t314;
+  const double t319 = t315 * 0.4;
+  const double t320 = t312 * 0.3;
+  const double t321 = t319 + t320;
+  const double t322 = t312 * 0.4;
+  const double t323 = t318 * 0.3;
+  const double t324 = t322 + t323;
+  const double t325 = t307 - t321;
+  const double t326 = t308 - t324;
+  const double t327 = t9 * t315;
+  const double t329 = t10 * t312;
+  const double t330 = t329 - t327;
+  const double t332 = t9 * t312;
+  const double t335 = t10 * t318;
+  const double t336 = t335 - t332;
+  const double t339 = t330 * 1.2;
+  const double t340 = t336 * 1.2;
+  const double t341 = t325 + t339;
+  const double t342 = t326 + t340;
+  const double t343 = t43 * (-0.9);
+  const double t345 = t43 * t343;
+  const double t347 = t42 * t43;
+  const double t349 = t38 * t43;
+  const double t350 = t56 - t347;
+  const double t351 = t57 + t349;
+  const double t352 = t351 - t345;
+  const double t353 = t38 - t343;
+  const double t354 = t43 * t43;
+  const double t360 = t347 * 2.0;
+  const double t362 = t341 * t354;
+  const double t363 = -t362;
+  const double t364 = t363 - t360;
+  const double t365 = t364 - t350;
+  const double t366 = -t365;
+  const double t368 = t43 * t353;
+  const double t370 = t368 * 2.0;
+  const double t371 = t342 * t354;
+  const double t373 = t370 - t371;
+  const double t374 = t373 - t352;
+  const double t375 = -t374;
+  const double t376 = -t341;
+  const double t377 = 0.9 - t342;
+  const double t378 = -t377;
+  const double t379 = t307 - t341;
+  const double t380 = t308 - t342;
+  const double t381 = -t380;
+  const double t382 = t325 - t341;
+  const double t383 = t326 - t342;
+  const double t384 = -t383;
+  T[0] = t378;
+  T[1] = t381;
+  T[2] = t384;
+  T[3] = t376;
+  T[4] = t379;
+  T[5] = t382;
+  gamma[0] = t366;
+  gamma[1] = t375;
+}
+
+void loop_terms(const double* q, const double* v, const double* tau, double* L, double* z, double* T, double* gamma) {
+  loop_terms_part(q, v, tau, L, z, T, gamma);
+}
+
+// ---- constraints(), constraint_jacobian(), constraint_gamma(): specialized ----
+// constraints(): specialized kinematics and constraint terms
+void constraints_part(const double* q, double* phi) {
+  // body 0: joint transform X_PC of 'joint_C' (revolute)
+  const double t1 = std::sin(q[2]);
+  const double t2 = std::cos(q[2]);
+  // body 1: joint transform X_PC of 'joint_B' (revolute)
+  const double t5 = std::sin(q[1]);
+  const double t6 = std::cos(q[1]);
+  // body 2: joint transform X_PC of 'joint_A' (revolute)
+  const double t9 = std::sin(q[0]);
+  const double t10 = std::cos(q[0]);
+  // cut 'joint_D' (revolute): bodies 0 and -1, in the coordinates of its frame on k
+  const double t12 = t1 * 0.5;
+  const double t13 = t2 * 0.9;
+  const double t14 = t12 + t13;
+  const double t15 = t2 * 0.5;
+  const double t16 = t1 * 0.9;
+  const double t18 = t15 - t16;
+  const double t19 = -t14;
+  const double t20 = 0.9 - t18;
+  const double t21 = t1 * t5;
+  const double t23 = t2 * t6;
+  const double t24 = t23 - t21;
+  const double t25 = t1 * t6;
+  const double t26 = t2 * t5;
+  const double t27 = t25 + t26;
+  const double t29 = -t25;
+  const double t30 = t29 - t26;
+  const double t31 = t27 * 0.4;
+  const double t32 = t24 * 0.3;
+  const double t33 = t31 + t32;
+  const double t34 = t24 * 0.4;
+  const double t35 = t30 * 0.3;
+  const double t36 = t34 + t35;
+  const double t37 = t19 - t33;
+  const double t38 = t20 - t36;
+  const double t39 = t9 * t27;
+  const double t41 = t10 * t24;
+  const double t42 = t41 - t39;
+  const double t44 = t9 * t24;
+  const double t47 = t10 * t30;
+  const double t48 = t47 - t44;
+  const double t51 = t42 * 1.2;
+  const double t52 = t48 * 1.2;
+  const double t53 = t37 + t51;
+  const double t54 = t38 + t52;
+  phi[0] = t53;
+  phi[1] = t54;
+}
+
+void constraints_terms(const double* q, double* phi) {
+  constraints_part(q, phi);
+}
+
+// constraint_jacobian(): specialized kinematics and constraint terms
+void constraint_jacobian_part(const double* q, double* Phiq) {
+  // body 0: joint transform X_PC of 'joint_C' (revolute)
+  const double t1 = std::sin(q[2]);
+  const double t2 = std::cos(q[2]);
+  // body 1: joint transform X_PC of 'joint_B' (revolute)
+  const double t5 = std::sin(q[1]);
+  const double t6 = std::cos(q[1]);
+  // body 2: joint transform X_PC of 'joint_A' (revolute)
+  const double t9 = std::sin(q[0]);
+  const double t10 = std::cos(q[0]);
+  // cut 'joint_D' (revolute): bodies 0 and -1, in the coordinates of its frame on k
+  const double t12 = t1 * 0.5;
+  const double t13 = t2 * 0.9;
+  const double t14 = t12 + t13;
+  const double t15 = t2 * 0.5;
+  const double t16 = t1 * 0.9;
+  const double t18 = t15 - t16;
+  const double t19 = -t14;
+  const double t20 = 0.9 - t18;
+  const double t21 = t1 * t5;
+  const double t23 = t2 * t6;
+  const double t24 = t23 - t21;
+  const double t25 = t1 * t6;
+  const double t26 = t2 * t5;
+  const double t27 = t25 + t26;
+  const double t29 = -t25;
+  const double t30 = t29 - t26;
+  const double t31 = t27 * 0.4;
+  const double t32 = t24 * 0.3;
+  const double t33 = t31 + t32;
+  const double t34 = t24 * 0.4;
+  const double t35 = t30 * 0.3;
+  const double t36 = t34 + t35;
+  const double t37 = t19 - t33;
+  const double t38 = t20 - t36;
+  const double t39 = t9 * t27;
+  const double t41 = t10 * t24;
+  const double t42 = t41 - t39;
+  const double t44 = t9 * t24;
+  const double t47 = t10 * t30;
+  const double t48 = t47 - t44;
+  const double t51 = t42 * 1.2;
+  const double t52 = t48 * 1.2;
+  const double t53 = t37 + t51;
+  const double t54 = t38 + t52;
+  const double t55 = -t53;
+  const double t56 = 0.9 - t54;
+  const double t57 = -t56;
+  const double t58 = t19 - t53;
+  const double t59 = t20 - t54;
+  const double t60 = -t59;
+  const double t61 = t37 - t53;
+  const double t62 = t38 - t54;
+  const double t63 = -t62;
+  Phiq[0] = t63;
+  Phiq[1] = t61;
+  Phiq[2] = t60;
+  Phiq[3] = t58;
+  Phiq[4] = t57;
+  Phiq[5] = t55;
+}
+
+void constraint_jacobian_terms(const double* q, double* Phiq) {
+  constraint_jacobian_part(q, Phiq);
+}
+
+// constraint_gamma(): specialized kinematics and constraint terms
+void constraint_gamma_part(const double* q, const double* v, double* gamma) {
+  // body 0: joint transform X_PC of 'joint_C' (revolute)
+  const double t1 = std::sin(q[2]);
+  const double t2 = std::cos(q[2]);
+  // body 1: joint transform X_PC of 'joint_B' (revolute)
+  const double t5 = std::sin(q[1]);
+  const double t6 = std::cos(q[1]);
+  // body 2: joint transform X_PC of 'joint_A' (revolute)
+  const double t9 = std::sin(q[0]);
+  const double t10 = std::cos(q[0]);
+  // body 2: velocity and velocity-product acceleration of 'joint_A'
+  // body 1: velocity and velocity-product acceleration of 'joint_B'
+  const double t14 = v[0] * 0.4;
+  const double t15 = v[0] * 0.3;
+  const double t18 = t5 * t15;
+  const double t19 = t6 * t14;
+  const double t21 = t18 - t19;
+  const double t22 = t6 * t15;
+  const double t23 = t5 * t14;
+  const double t25 = t22 + t23;
+  const double t26 = v[0] + v[1];
+  const double t27 = v[1] * t25;
+  const double t28 = v[1] * t21;
+  // body 0: velocity and velocity-product acceleration of 'joint_C'
+  const double t31 = t26 * 0.5;
+  const double t32 = t26 * 0.9;
+  const double t34 = t21 - t31;
+  const double t35 = t25 + t32;
+  const double t36 = t1 * t35;
+  const double t37 = t2 * t34;
+  const double t38 = t36 + t37;
+  const double t39 = t2 * t35;
+  const double t40 = t1 * t34;
+  const double t42 = t39 - t40;
+  const double t43 = t26 + v[2];
+  const double t44 = v[2] * t42;
+  const double t45 = v[2] * t38;
+  const double t47 = t1 * t28;
+  const double t49 = t2 * t27;
+  const double t50 = t49 - t47;
+  const double t51 = t2 * t28;
+  const double t53 = t1 * t27;
+  const double t54 = -t53;
+  const double t55 = t54 - t51;
+  const double t56 = t44 + t50;
+  const double t57 = t55 - t45;
+  // cut 'joint_D' (revolute): bodies 0 and -1, in the coordinates of its frame on k
+  const double t58 = t1 * 0.5;
+  const double t59 = t2 * 0.9;
+  const double t60 = t58 + t59;
+  const double t61 = t2 * 0.5;
+  const double t62 = t1 * 0.9;
+  const double t64 = t61 - t62;
+  const double t65 = -t60;
+  const double t66 = 0.9 - t64;
+  const double t67 = t1 * t5;
+  const double t69 = t2 * t6;
+  const double t70 = t69 - t67;
+  const double t71 = t1 * t6;
+  const double t72 = t2 * t5;
+  const double t73 = t71 + t72;
+  const double t75 = -t71;
+  const double t76 = t75 - t72;
+  const double t77 = t73 * 0.4;
+  const double t78 = t70 * 0.3;
+  const double t79 = t77 + t78;
+  const double t80 = t70 * 0.4;
+  const double t81 = t76 * 0.3;
+  const double t82 = t80 + t81;
+  const double t83 = t65 - t79;
+  const double t84 = t66 - t82;
+  const double t85 = t9 * t73;
+  const double t87 = t10 * t70;
+  const double t88 = t87 - t85;
+  const double t90 = t9 * t70;
+  const double t93 = t10 * t76;
+  const double t94 = t93 - t90;
+  const double t97 = t88 * 1.2;
+  const double t98 = t94 * 1.2;
+  const double t99 = t83 + t97;
+  const double t100 = t84 + t98;
+  const double t101 = t43 * (-0.9);
+  const double t103 = t43 * t101;
+  const double t105 = t42 * t43;
+  const double t107 = t38 * t43;
+  const double t108 = t56 - t105;
+  const double t109 = t57 + t107;
+  const double t110 = t109 - t103;
+  const double t111 = t38 - t101;
+  const double t112 = t43 * t43;
+  const double t118 = t105 * 2.0;
+  const double t120 = t99 * t112;
+  const double t121 = -t120;
+  const double t122 = t121 - t118;
+  const double t123 = t122 - t108;
+  const double t124 = -t123;
+  const double t126 = t43 * t111;
+  const double t128 = t126 * 2.0;
+  const double t129 = t100 * t112;
+  const double t131 = t128 - t129;
+  const double t132 = t131 - t110;
+  const double t133 = -t132;
+  gamma[0] = t124;
+  gamma[1] = t133;
+}
+
+void constraint_gamma_terms(const double* q, const double* v, double* gamma) {
+  constraint_gamma_part(q, v, gamma);
+}
+
+// ---- mass_matrix() and bias_forces(): specialized programs ----
+// mass_matrix(): specialized kinematics and M (eq. 14, 18)
+void mass_matrix_part(const double* q, double* M) {
+  // body 0: joint transform X_PC of 'joint_C' (revolute)
+  const double t1 = std::sin(q[2]);
+  const double t2 = std::cos(q[2]);
+  // body 1: joint transform X_PC of 'joint_B' (revolute)
+  const double t5 = std::sin(q[1]);
+  const double t6 = std::cos(q[1]);
+  // body 2: joint transform X_PC of 'joint_A' (revolute)
+  // body 0: composite inertia of 'joint_C' added to its parent
+  const double t12 = t1 * (-0.81);
+  const double t14 = t2 * (-0.81);
+  const double t15 = 1.62 - t12;
+  const double t16 = t14 + 0.9;
+  const double t17 = t15 + 0.9;
+  const double t18 = t16 + 0.5;
+  const double t24 = t14 * 0.5;
+  const double t25 = t12 * 0.9;
+  const double t27 = t24 - t25;
+  const double t28 = t27 * 2.0;
+  const double t29 = t28 + 1.9080000000000001;
+  const double t58 = t29 + 0.48604500000000006;
+  const double t59 = t58 + 0.7067166666670001;
+  // body 1: composite inertia of 'joint_B' added to its parent
+  const double t60 = t5 * t18;
+  const double t62 = t6 * t17;
+  const double t63 = t62 - t60;
+  const double t64 = t6 * t18;
+  const double t65 = t5 * t17;
+  const double t66 = t64 + t65;
+  const double t83 = t66 * 0.4;
+  const double t84 = t63 * 0.3;
+  const double t85 = t83 + t84;
+  const double t86 = t85 * 2.0;
+  const double t87 = t86 + 0.9500000000000001;
+  const double t114 = t59 + t87;
+  const double t115 = t114 + 0.083358333333;
+  // body 0: columns of M of 'joint_C' (eq. 18)
+  const double t116 = t2 * 0.81;
+  const double t117 = t1 * 0.81;
+  const double t118 = t116 * 0.5;
+  const double t119 = t117 * 0.9;
+  const double t120 = t119 - t118;
+  const double t121 = t120 + 0.48604500000000006;
+  const double t122 = t5 * t117;
+  const double t124 = t6 * t116;
+  const double t125 = t124 - t122;
+  const double t126 = t6 * t117;
+  const double t127 = t5 * t116;
+  const double t128 = t126 + t127;
+  const double t129 = t125 * 0.4;
+  const double t130 = t128 * 0.3;
+  const double t131 = t130 - t129;
+  const double t132 = t121 + t131;
+  // body 1: columns of M of 'joint_B' (eq. 18)
+  const double t136 = -t64;
+  const double t137 = t136 - t65;
+  const double t138 = t137 * 0.4;
+  const double t139 = t84 - t138;
+  const double t140 = t59 + t139;
+  // body 2: columns of M of 'joint_A' (eq. 18)
+  M[0] = t115;
+  M[1] = t140;
+  M[2] = t132;
+  M[3] = t140;
+  M[4] = t59;
+  M[5] = t121;
+  M[6] = t132;
+  M[7] = t121;
+  M[8] = 0.48604500000000006;
+}
+
+void mass_matrix_terms(const double* q, double* M) {
+  mass_matrix_part(q, M);
+}
+
+// bias_forces(): specialized kinematics and h (Newton-Euler)
+void bias_forces_part(const double* q, const double* v, double* h) {
+  // body 0: joint transform X_PC of 'joint_C' (revolute)
+  const double t1 = std::sin(q[2]);
+  const double t2 = std::cos(q[2]);
+  // body 1: joint transform X_PC of 'joint_B' (revolute)
+  const double t5 = std::sin(q[1]);
+  const double t6 = std::cos(q[1]);
+  // body 2: joint transform X_PC of 'joint_A' (revolute)
+  // body 2: velocity and velocity-product acceleration of 'joint_A'
+  // body 1: velocity and velocity-product acceleration of 'joint_B'
+  const double t14 = v[0] * 0.4;
+  const double t15 = v[0] * 0.3;
+  const double t18 = t5 * t15;
+  const double t19 = t6 * t14;
+  const double t21 = t18 - t19;
+  const double t22 = t6 * t15;
+  const double t23 = t5 * t14;
+  const double t25 = t22 + t23;
+  const double t26 = v[0] + v[1];
+  const double t27 = v[1] * t25;
+  const double t28 = v[1] * t21;
+  // body 0: velocity and velocity-product acceleration of 'joint_C'
+  const double t31 = t26 * 0.5;
+  const double t32 = t26 * 0.9;
+  const double t34 = t21 - t31;
+  const double t35 = t25 + t32;
+  const double t36 = t1 * t35;
+  const double t37 = t2 * t34;
+  const double t38 = t36 + t37;
+  const double t39 = t2 * t35;
+  const double t40 = t1 * t34;
+  const double t42 = t39 - t40;
+  const double t43 = t26 + v[2];
+  const double t44 = v[2] * t42;
+  const double t45 = v[2] * t38;
+  const double t47 = t1 * t28;
+  const double t49 = t2 * t27;
+  const double t50 = t49 - t47;
+  const double t51 = t2 * t28;
+  const double t53 = t1 * t27;
+  const double t54 = -t53;
+  const double t55 = t54 - t51;
+  const double t56 = t44 + t50;
+  const double t57 = t55 - t45;
+  // body 2: acceleration of 'joint_A' with gravity
+  // body 1: acceleration of 'joint_B' with gravity
+  // body 0: acceleration of 'joint_C' with gravity
+  // body 0: Newton-Euler force of 'joint_C'
+  const double t58 = t43 * (-0.81);
+  const double t59 = t38 * 1.8;
+  const double t60 = t42 * 1.8;
+  const double t61 = t59 - t58;
+  const double t66 = t43 * t60;
+  const double t68 = t43 * t61;
+  const double t69 = t42 * t61;
+  const double t70 = t38 * t60;
+  const double t71 = t70 - t69;
+  const double t72 = t56 * 1.8;
+  const double t73 = t57 * 1.8;
+  const double t74 = t56 * (-0.81);
+  const double t76 = t71 - t74;
+  const double t77 = t72 - t66;
+  const double t78 = t68 + t73;
+  // body 1: Newton-Euler force of 'joint_B'
+  const double t79 = t21 * 2.0;
+  const double t80 = t25 * 2.0;
+  const double t81 = t79 - t31;
+  const double t82 = t32 + t80;
+  const double t88 = t26 * t82;
+  const double t90 = t26 * t81;
+  const double t91 = t25 * t81;
+  const double t92 = t21 * t82;
+  const double t93 = t92 - t91;
+  const double t94 = t27 * 2.0;
+  const double t95 = t28 * 2.0;
+  const double t97 = t27 * 0.5;
+  const double t98 = t28 * 0.9;
+  const double t99 = -t98;
+  const double t100 = t99 - t97;
+  const double t101 = t93 + t100;
+  const double t102 = t94 - t88;
+  const double t103 = t90 - t95;
+  // body 2: Newton-Euler force of 'joint_A'
+  // body 0: bias forces of 'joint_C'
+  const double t113 = v[2] * 0.01;
+  const double t114 = t76 + t113;
+  const double t115 = t1 * t78;
+  const double t117 = t2 * t77;
+  const double t118 = t117 - t115;
+  const double t119 = t2 * t78;
+  const double t120 = t1 * t77;
+  const double t121 = t119 + t120;
+  const double t122 = t118 * 0.5;
+  const double t123 = t121 * 0.9;
+  const double t124 = t123 - t122;
+  const double t129 = t76 + t124;
+  const double t132 = t101 + t129;
+  const double t133 = t102 + t118;
+  const double t134 = t103 + t121;
+  // body 1: bias forces of 'joint_B'
+  const double t135 = v[1] * 0.01;
+  const double t136 = t132 + t135;
+  const double t137 = t5 * t134;
+  const double t139 = t6 * t133;
+  const double t140 = t139 - t137;
+  const double t141 = t6 * t134;
+  const double t142 = t5 * t133;
+  const double t143 = t141 + t142;
+  const double t144 = t140 * 0.4;
+  const double t145 = t143 * 0.3;
+  const double t146 = t145 - t144;
+  const double t156 = t132 + t146;
+  // body 2: bias forces of 'joint_A'
+  const double t161 = v[0] * 0.01;
+  const double t162 = t156 + t161;
+  h[2] = t114;
+  h[1] = t136;
+  h[0] = t162;
+}
+
+void bias_forces_terms(const double* q, const double* v, double* h) {
+  bias_forces_part(q, v, h);
+}
 }  // namespace
 
 namespace {
@@ -466,14 +1169,9 @@ int forward_dynamics(const double* q, const double* v, const double* tau, double
   // non-finite entry always reaches qdd or lambda (status 3 below); they are
   // scanned, to name the coordinate, only after a failed solve.
   if (jr::any_non_finite(q, nq)) return non_finite_input(q, v, tau);
-  jr::kinematics(kModel, g_bodies, q);
-  // M, eq. (18), by the composite-rigid-body recursion, eq. (14).
-  jr::mass_matrix_packed(kModel, g_bodies, g_L);
-  // Q = tau - h (Coriolis and centrifugal terms, gravity, joint damping).
-  jr::bias_forces<true, true>(kModel, g_bodies, v, g_z);
-  for (std::int32_t j = 0; j < nv; ++j) g_z[j] = tau[kDofUser[j]] - g_z[j];
-  // Phiq (packed, Lemma 3 pattern) and gamma = -(Phiq v)_q v.
-  jr::constraint_terms(kModel, kConstraints, g_bodies, g_motion, q, v, nullptr, g_T, g_gamma);
+  // Specialized terms: M into g_L (packed), Q = tau - h into g_z, Phiq into g_T
+  // (packed, Lemma 3 pattern), gamma = -(Phiq v)_q v into g_gamma.
+  loop_terms(q, v, tau, g_L, g_z, g_T, g_gamma);
   const int status = solve_closed(nullptr, qdd, lambda);
   if (status == kSuccess) return status;
   const int input = non_finite_input(q, v, tau);
@@ -530,30 +1228,23 @@ int solve_augmented_steps(const double* M, const double* Q, const double* Phiq, 
 #endif
 
 void constraints(const double* q, double* phi) {
-  jr::constraints(kModel, kConstraints, g_bodies, q, phi);
+  constraints_terms(q, phi);  // specialized
 }
 
 void constraint_jacobian(const double* q, double* Phiq) {
-  jr::kinematics(kModel, g_bodies, q);
-  jr::constraint_terms(kModel, kConstraints, g_bodies, g_motion, q, nullptr, nullptr, g_T, nullptr);
-  jr::unpack_constraint_jacobian(kModel, kConstraints, g_T, Phiq);
+  constraint_jacobian_terms(q, Phiq);  // specialized (dense, column-major)
 }
 
 void constraint_gamma(const double* q, const double* v, double* gamma) {
-  jr::kinematics(kModel, g_bodies, q);
-  jr::constraint_terms(kModel, kConstraints, g_bodies, g_motion, q, v, nullptr, nullptr, gamma);
+  constraint_gamma_terms(q, v, gamma);  // specialized
 }
 
 void mass_matrix(const double* q, double* M) {
-  jr::kinematics(kModel, g_bodies, q);
-  jr::mass_matrix_packed(kModel, g_bodies, g_L);
-  jr::unpack_mass_matrix(kModel, g_L, M);
+  mass_matrix_terms(q, M);  // specialized (dense, user order)
 }
 
 void bias_forces(const double* q, const double* v, double* h) {
-  jr::kinematics(kModel, g_bodies, q);
-  jr::bias_forces<true, true>(kModel, g_bodies, v, g_z);
-  for (std::int32_t j = 0; j < nv; ++j) h[kDofUser[j]] = g_z[j];
+  bias_forces_terms(q, v, h);  // specialized (user order)
 }
 
 const char* last_error() { return g_error; }
