@@ -407,7 +407,8 @@ std::int32_t articulated_closed(const Model& model, const ConstraintModel& cm, B
     for_each_row_entry(model, cut, [&](std::int32_t index, std::int32_t dof) {
       const double e = row[index];
       b += e * qdd_lem[dof];
-      for (std::int32_t s = 0; s < nc; ++s) W[r + static_cast<std::int64_t>(nc) * s] += e * Y[static_cast<std::int64_t>(s) * nv + dof];
+      for (std::int32_t s = 0; s < nc; ++s)
+        W[r + static_cast<std::int64_t>(nc) * s] += e * Y[static_cast<std::int64_t>(s) * nv + dof];
     });
     lambda[r] = b - gamma[r];
   });

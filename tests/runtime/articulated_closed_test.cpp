@@ -44,7 +44,8 @@ struct Loop {
   int nv = 0, nc = 0;
   Eigen::VectorXd Phiq_p, gamma;  // packed Jacobian and gamma at the last terms()
 
-  Loop(const testing::ModelCase& c, bool analyze) : robot(testing::read_model_case(c)), tree(topology::build_tree(robot)) {
+  Loop(const testing::ModelCase& c, bool analyze)
+      : robot(testing::read_model_case(c)), tree(topology::build_tree(robot)) {
     if (analyze) assembled = analysis::analyze_constraints(robot, tree, /*strict=*/false).configurations;
     rt = std::make_unique<analysis::RuntimeModel>(tree, kGravity);
     work.resize(tree.bodies.size());
