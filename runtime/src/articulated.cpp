@@ -400,14 +400,15 @@ std::int32_t articulated_closed(const Model& model, const ConstraintModel& cm, B
     for_each_row_entry(model, cut, [&](std::int32_t index, std::int32_t dof) { y[dof] = row[index]; });
     articulated_solve(model, bodies, work, y);
   });
-  // Row r of W = Phiq Y and of the right-hand side Phiq a0 - gamma.
+  // Row r of W = Phiq Y up to the diagonal (W is symmetric; factor_w reads
+  // the lower triangle) and of the right-hand side Phiq a0 - gamma.
   for_each_kept_row(cm, Phiq_packed, [&](const CutModel& cut, std::int32_t r, const double* row) {
-    for (std::int32_t s = 0; s < nc; ++s) W[r + static_cast<std::int64_t>(nc) * s] = 0.0;
+    for (std::int32_t s = 0; s <= r; ++s) W[r + static_cast<std::int64_t>(nc) * s] = 0.0;
     double b = 0.0;
     for_each_row_entry(model, cut, [&](std::int32_t index, std::int32_t dof) {
       const double e = row[index];
       b += e * qdd_lem[dof];
-      for (std::int32_t s = 0; s < nc; ++s)
+      for (std::int32_t s = 0; s <= r; ++s)
         W[r + static_cast<std::int64_t>(nc) * s] += e * Y[static_cast<std::int64_t>(s) * nv + dof];
     });
     lambda[r] = b - gamma[r];
