@@ -318,4 +318,134 @@ void inverse_dynamics(const Model& model, BodyState* bodies, const double* v, co
   }
 }
 
+namespace {
+
+// Kept row r of every cut, in Phi order: f(cut, r, its packed entries).
+template <typename F>
+void for_each_kept_row(const ConstraintModel& cm, const double* Phiq_p, F&& f) {
+  for (std::int32_t c = 0; c < cm.ncuts; ++c) {
+    const CutModel& cut = cm.cuts[c];
+    std::int32_t kept = 0;
+    for (int r = 0; r < cut_kind_rows(cut.kind); ++r) {
+      if (!(cut.row_mask >> r & 1)) continue;
+      f(cut, cut.first_row + kept, Phiq_p + cut.phiq_start + static_cast<std::int64_t>(kept) * cut.num_dofs);
+      ++kept;
+    }
+  }
+}
+
+// The packed layout of a row (runtime.hpp, "Packed constraint Jacobian"):
+// f(index, dof) for the dofs on the paths of k and l to the base in
+// increasing Lemma 2 order, skipping those on both paths (entries exactly 0,
+// never written by jr::constraint_terms).
+template <typename F>
+void for_each_row_entry(const Model& model, const CutModel& cut, F&& f) {
+  std::int32_t dk = cut.body_k >= 0 ? model.bodies[cut.body_k].v_lem : -1;
+  std::int32_t dl = cut.body_l >= 0 ? model.bodies[cut.body_l].v_lem : -1;
+  for (std::int32_t index = 0; dk >= 0 || dl >= 0; ++index) {
+    const bool on_k = dk >= 0 && (dl < 0 || dk <= dl), on_l = dl >= 0 && (dk < 0 || dl <= dk);
+    if (!(on_k && on_l)) f(index, on_k ? dk : dl);
+    if (on_k) dk = model.dof_parent[dk];
+    if (on_l) dl = model.dof_parent[dl];
+  }
+}
+
+// In-place L D L^T of the symmetric W (n x n, column-major, lower triangle
+// read): L below the diagonal, the diagonal kept, pivots in d.  Returns -1,
+// or the first row whose pivot is not above tolerance * W[j, j].
+std::int32_t factor_w(double* W, std::int32_t n, double tolerance, double* d) {
+  for (std::int32_t j = 0; j < n; ++j) {
+    double p = W[j + n * j];
+    for (std::int32_t k = 0; k < j; ++k) p -= W[j + n * k] * W[j + n * k] * d[k];
+    d[j] = p;
+    if (!(p > tolerance * W[j + n * j])) return j;
+    for (std::int32_t i = j + 1; i < n; ++i) {
+      double s = W[i + n * j];
+      for (std::int32_t k = 0; k < j; ++k) s -= W[i + n * k] * W[j + n * k] * d[k];
+      W[i + n * j] = s / p;
+    }
+  }
+  return -1;
+}
+
+// x = (L D L^T)^-1 x with the factor of factor_w.
+void solve_w(const double* L, std::int32_t n, const double* d, double* x) {
+  for (std::int32_t j = 0; j < n; ++j)
+    for (std::int32_t i = j + 1; i < n; ++i) x[i] -= L[i + n * j] * x[j];
+  for (std::int32_t j = 0; j < n; ++j) x[j] /= d[j];
+  for (std::int32_t j = n - 1; j >= 0; --j)
+    for (std::int32_t i = j + 1; i < n; ++i) x[j] -= L[i + n * j] * x[i];
+}
+
+constexpr double kWPivotTolerance = 1e-14;  // Step 3's kPivotTolerance (templates/solver.cpp.tmpl)
+
+}  // namespace
+
+template <bool kGravity, bool kDamping>
+std::int32_t articulated_closed(const Model& model, const ConstraintModel& cm, BodyState* bodies,
+                                ArticulatedState* work, const double* Phiq_packed, const double* gamma,
+                                const double* v, const double* tau, double* qdd_lem, double* lambda,
+                                double* pivots_lem, double* W_pivots, double* scratch) {
+  // a0 = M^-1 (tau - h), in qdd_lem.
+  const std::int32_t status =
+      articulated_dynamics<kGravity, kDamping>(model, bodies, work, v, tau, qdd_lem, pivots_lem);
+  if (status >= 0) return status;
+  const std::int32_t nv = model.nv, nc = cm.nc;
+  double* Y = scratch;
+  double* W = scratch + static_cast<std::int64_t>(nc) * nv;
+  // Column r of Y = M^-1 (row r of Phiq)^T.
+  for_each_kept_row(cm, Phiq_packed, [&](const CutModel& cut, std::int32_t r, const double* row) {
+    double* y = Y + static_cast<std::int64_t>(r) * nv;
+    for (std::int32_t j = 0; j < nv; ++j) y[j] = 0.0;
+    for_each_row_entry(model, cut, [&](std::int32_t index, std::int32_t dof) { y[dof] = row[index]; });
+    articulated_solve(model, bodies, work, y);
+  });
+  // Row r of W = Phiq Y up to the diagonal (W is symmetric; factor_w reads
+  // the lower triangle) and of the right-hand side Phiq a0 - gamma.
+  for_each_kept_row(cm, Phiq_packed, [&](const CutModel& cut, std::int32_t r, const double* row) {
+    for (std::int32_t s = 0; s <= r; ++s) W[r + static_cast<std::int64_t>(nc) * s] = 0.0;
+    double b = 0.0;
+    for_each_row_entry(model, cut, [&](std::int32_t index, std::int32_t dof) {
+      const double e = row[index];
+      b += e * qdd_lem[dof];
+      for (std::int32_t s = 0; s <= r; ++s)
+        W[r + static_cast<std::int64_t>(nc) * s] += e * Y[static_cast<std::int64_t>(s) * nv + dof];
+    });
+    lambda[r] = b - gamma[r];
+  });
+  if (const std::int32_t r = factor_w(W, nc, kWPivotTolerance, W_pivots); r >= 0) return nv + r;
+  solve_w(W, nc, W_pivots, lambda);
+  // qdd = a0 - Y lambda.
+  for (std::int32_t s = 0; s < nc; ++s) {
+    const double* y = Y + static_cast<std::int64_t>(s) * nv;
+    for (std::int32_t j = 0; j < nv; ++j) qdd_lem[j] -= y[j] * lambda[s];
+  }
+  return -1;
+}
+
+#define JR_ARTICULATED_CLOSED(G, D)                                                                              \
+  template std::int32_t articulated_closed<G, D>(const Model&, const ConstraintModel&, BodyState*,              \
+                                                 ArticulatedState*, const double*, const double*, const double*, \
+                                                 const double*, double*, double*, double*, double*, double*);
+JR_ARTICULATED_CLOSED(false, false)
+JR_ARTICULATED_CLOSED(false, true)
+JR_ARTICULATED_CLOSED(true, false)
+JR_ARTICULATED_CLOSED(true, true)
+#undef JR_ARTICULATED_CLOSED
+
+std::int32_t articulated_closed(const Model& model, const ConstraintModel& cm, BodyState* bodies,
+                                ArticulatedState* work, const double* Phiq_packed, const double* gamma,
+                                const double* v, const double* tau, double* qdd_lem, double* lambda,
+                                double* pivots_lem, double* W_pivots, double* scratch, bool gravity, bool damping) {
+  auto call = [&](auto g, auto d) {
+    return articulated_closed<decltype(g)::value, decltype(d)::value>(model, cm, bodies, work, Phiq_packed, gamma,
+                                                                       v, tau, qdd_lem, lambda, pivots_lem,
+                                                                       W_pivots, scratch);
+  };
+  using T = std::true_type;
+  using F = std::false_type;
+  if (gravity) return damping ? call(T(), T()) : call(T(), F());
+  return damping ? call(F(), T()) : call(F(), F());
+}
+
 }  // namespace jr

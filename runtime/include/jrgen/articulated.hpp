@@ -90,4 +90,52 @@ void inverse_dynamics(const Model& model, BodyState* bodies, const double* v, co
 void inverse_dynamics(const Model& model, BodyState* bodies, const double* v, const double* qdd_lem,
                       double* tau_lem, bool gravity, bool damping);
 
+/// Closed loops in O(n nc + nc^2 d + nc^3), d the longest path of a cut to
+/// the base (issue 20, item 2: loops over long chains, where forming and
+/// factoring M is O(n^3)).  The Lagrange multiplier form of eq. 17,
+/// M qdd + Phiq^T lambda = tau - h, Phiq qdd = gamma, solved with the
+/// articulated-body factorization of M, never forming M:
+///   a0 = M^-1 (tau - h)                        articulated_dynamics()
+///   Y  = M^-1 Phiq^T                           one articulated_solve() per kept row
+///   W  = Phiq Y = Phiq M^-1 Phiq^T (nc x nc)   L D L^T, pivots in W_pivots
+///   W lambda = Phiq a0 - gamma,  qdd = a0 - Y lambda.
+/// W is Step 3.3's T^T T (T = L^-1 Phiq^T, M = L L^T) in exact arithmetic,
+/// symmetric positive definite when the kept rows are independent, and
+/// lambda that of Step 3.4.
+///
+/// cm, Phiq_packed (cm.phiq_nnz, as jr::constraint_terms leaves it: the
+/// common-ancestor entries are never read), gamma (cm.nc): the kept rows at
+/// the configuration of bodies.  bodies: after jr::kinematics() (v is
+/// written).  v, tau: (nv) user order.  qdd_lem, pivots_lem: (nv) Lemma 2
+/// order, as articulated_dynamics().  lambda, W_pivots: (nc), rows in Phi
+/// order.  scratch: closed_scratch_size(nv, nc) doubles, caller-owned: Y (nc
+/// columns of nv, Lemma 2 order) then W (nc x nc, column-major: its diagonal,
+/// L_W below it, undefined above).  work: as articulated_dynamics() leaves
+/// it, except pA, u and a (overwritten by the solves).  Nothing allocates.
+///
+/// Returns -1 on success.  0 <= k < nv: M's pivot of Lemma 2 dof k failed, as
+/// articulated_dynamics() (nothing else written).  nv + r: W's pivot of row r
+/// (Phi order) was not above 1e-14 * W[r, r] (Step 3's kPivotTolerance, so
+/// also when <= 0 or NaN): the rows are dependent to working precision; the
+/// pivot is in W_pivots[r], qdd_lem holds a0 and lambda is not the solution.
+/// On success the digits test of Step 3.4 applies to W's pivots as to those
+/// of T^T T: jr::pivot_spread(W_pivots, nc, false, 1, ...); and to M's as in
+/// articulated_dynamics().  nc = 0 is articulated_dynamics().
+template <bool kGravity, bool kDamping>
+std::int32_t articulated_closed(const Model& model, const ConstraintModel& cm, BodyState* bodies,
+                                ArticulatedState* work, const double* Phiq_packed, const double* gamma,
+                                const double* v, const double* tau, double* qdd_lem, double* lambda,
+                                double* pivots_lem, double* W_pivots, double* scratch);
+
+/// Runtime switch over the four instantiations.
+std::int32_t articulated_closed(const Model& model, const ConstraintModel& cm, BodyState* bodies,
+                                ArticulatedState* work, const double* Phiq_packed, const double* gamma,
+                                const double* v, const double* tau, double* qdd_lem, double* lambda,
+                                double* pivots_lem, double* W_pivots, double* scratch, bool gravity, bool damping);
+
+/// Doubles of scratch that articulated_closed() needs: nc * (nv + nc).
+inline std::int64_t closed_scratch_size(std::int32_t nv, std::int32_t nc) {
+  return static_cast<std::int64_t>(nc) * (static_cast<std::int64_t>(nv) + nc);
+}
+
 }  // namespace jr
