@@ -116,11 +116,11 @@ std::string without_final_newline(std::string s) {
 
 // The terms of forward_dynamics (its route, emit/terms.hpp) and the bodies
 // of the API's pieces (mass_matrix, bias_forces, constraints, ...).
-void terms_values(const topology::Tree& t, const Options& options, const Steps124& steps, TemplateValues& api,
-                  TemplateValues& v, Solver& solver) {
-  const TermsBlock terms = t.nc() == 0
-                               ? tree_terms(t, options, flops(steps.ops1) + flops(steps.ops2) + flops(steps.ops4))
-                               : loop_terms(t, options);
+void terms_values(const topology::Tree& t, const Options& options, const Steps124& steps, const LoopCode& loops,
+                  TemplateValues& api, TemplateValues& v, Solver& solver) {
+  long long solve_flops = flops(steps.ops1) + flops(steps.ops2) + flops(steps.ops4);
+  for (const StepOps& s : loops.ops) solve_flops += flops(s.ops);
+  const TermsBlock terms = t.nc() == 0 ? tree_terms(t, options, solve_flops) : loop_terms(t, options, solve_flops);
   v["terms"] = terms.definitions.empty() ? "" : "\n" + terms.definitions + "\n";
   v["terms_include"] = terms.include;
   api["fd_body"] = terms.fd_body;
@@ -232,7 +232,7 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
   v["step4"] = steps.step4;
   v["gather"] = gathers(t, plan);
   TemplateValues api = api_values(plan);
-  terms_values(t, options, steps, api, v, solver);
+  terms_values(t, options, steps, loops, api, v, solver);
   v["api"] = constraint_values(loops, plan, t.nc(), api, v);
 
   solver.ops = {{"1", steps.ops1}, {"2", steps.ops2}};

@@ -148,6 +148,27 @@ const char* const kCheckArticulated =
     "  return kSuccess;\n"
     "}\n";
 
+const char* const kCheckClosed =
+    "// Status of jr::articulated_closed (k: -1, a dof of M, or nv + a row of W), then\n"
+    "// the digits tests of M's and W's pivots as after Steps 1 and 3.4; lambda copied.\n"
+    "int check_closed(std::int32_t k, const double* qdd, double* lambda) {\n"
+    "  if (k >= nv) return constraints_singular(k - nv, g_Winv[k - nv]);\n"
+    "  if (const int status = check_articulated(g_Dinv, qdd)) return status;\n"
+    "  double ratio = 0.0;\n"
+    "  const std::int32_t j = jr::pivot_spread(g_Winv, nc, false, 1, kSpreadLimit, &ratio);\n"
+    "  if (j >= 0)\n"
+    "    return fail_row(kConstraintsSingular,\n"
+    "                    \"constraint rows singular to working precision (smallest pivot of T^T T below 1e-13 \"\n"
+    "                    \"of the largest)\",\n"
+    "                    j, ratio);\n"
+    "  if (jr::any_non_finite(g_zm, nc))\n"
+    "    for (std::int32_t r = 0; r < nc; ++r)\n"
+    "      if (!std::isfinite(g_zm[r])) return fail_row(kNonFinite, \"non-finite multiplier\", r, g_zm[r]);\n"
+    "  if (lambda != nullptr)\n"
+    "    for (std::int32_t r = 0; r < nc; ++r) lambda[r] = g_zm[r];\n"
+    "  return kSuccess;\n"
+    "}\n";
+
 TermsBlock articulated_block(const Built& b) {
   TermsBlock block;
   block.route = TermsRoute::kArticulated;
@@ -364,10 +385,41 @@ PieceTerms piece_terms(const topology::Tree& t, const Options& options) {
 
 namespace jrgen::emit {
 
-TermsBlock loop_terms(const topology::Tree& t, const Options& options) {
+TermsBlock loop_terms(const topology::Tree& t, const Options& options, long long solve_flops) {
   const long long limit = terms_limit();
   const Built b = t.nnz() <= limit && 100LL * t.nv <= limit ? loop_program(t, options) : Built{};
   TermsBlock block;
+  const long long nc = t.nc();
+  const long long closed = kRuntimeArticulatedPerDof * t.nv * (1 + nc / 2) + nc * nc * nc;
+  const long long crb = kRuntimeCompositePerEntry * t.nnz() + solve_flops;
+  if (!fits(b, limit) && !options.singular_proximal && closed < crb) {
+    block.route = TermsRoute::kRuntimeArticulated;
+    block.include = "#include <jrgen/articulated.hpp>\n";
+    block.definitions = fmt::format(
+        "// ---- forward_dynamics: the runtime's articulated-body route for closed loops ----\n"
+        "// jr::articulated_closed: a0 = M^-1 (tau - h), the columns Y = M^-1 Phiq^T by\n"
+        "// articulated-body solves, W = Phiq Y (Step 3.3's T^T T), W lambda = Phiq a0 - gamma,\n"
+        "// qdd = a0 - Y lambda: O(n nc), no M formed.\n"
+        "thread_local jr::ArticulatedState g_articulated[{}];\n"
+        "thread_local double g_closed_scratch[{}];\n\n{}\n{}",
+        t.bodies.size(), nc * (t.nv + nc), kCheckArticulated, kCheckClosed);
+    block.fd_body = fmt::format(
+        "  jr::kinematics(kModel, g_bodies, q);\n"
+        "  // Phiq (packed, Lemma 3 pattern) and gamma = -(Phiq v)_q v.\n"
+        "  jr::constraint_terms(kModel, kConstraints, g_bodies, g_motion, q, v, nullptr, g_T, g_gamma);\n"
+        "  const std::int32_t k = jr::articulated_closed{}(kModel, kConstraints, g_bodies, g_articulated, g_T,\n"
+        "                                                g_gamma, v, tau, g_z, g_zm, g_Dinv, g_Winv,\n"
+        "                                                g_closed_scratch);\n"
+        "  scatter_qdd(g_z, qdd);\n"
+        "  const int status = check_closed(k, qdd, lambda);\n",
+        runtime_flags(t, options));
+    block.summary = fmt::format(
+        "forward_dynamics: the runtime's kinematics, Phiq and gamma, then its articulated-body route with the "
+        "columns of M^-1 Phiq^T, O(n nc) (about {} operations; M and Steps 1-4 about {}; the specialized "
+        "program would hold {}, the limit is {})",
+        closed, crb, size_text(b), limit);
+    return block;
+  }
   if (!fits(b, limit)) {
     block.fd_body = fmt::format(
         "  jr::kinematics(kModel, g_bodies, q);\n"

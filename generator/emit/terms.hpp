@@ -57,9 +57,13 @@ TermsBlock tree_terms(const topology::Tree& tree, const Options& options, long l
 
 /// The forward_dynamics terms of a closed-loop model: kinematics, M (packed),
 /// Q = tau - h, the packed Phiq and gamma as one specialized program (the
-/// kinematics shared by all), then the generated Steps 1-4; or the runtime's
-/// terms above the statement limit.
-TermsBlock loop_terms(const topology::Tree& tree, const Options& options);
+/// kinematics shared by all), then the generated Steps 1-4.  Above the
+/// statement limit, the runtime's terms, then by counted operations either
+/// Steps 1-4 (`solve_flops`: their operations) or the runtime's
+/// articulated-body route with the columns of M^-1 Phiq^T
+/// (jr::articulated_closed: O(n nc), loops over long chains; not with
+/// --singular proximal, whose regularized Step 3.4 it does not have).
+TermsBlock loop_terms(const topology::Tree& tree, const Options& options, long long solve_flops);
 
 /// The bodies of constraints(), constraint_jacobian() and constraint_gamma()
 /// of a closed-loop model, with their specialized programs' definitions.

@@ -281,8 +281,35 @@ std::vector<ModelCase> all_models() {
   return out;
 }
 
+namespace {
+
+// A rope of n revolute joints hanging straight down (links of 1 mm, axes
+// alternating y and x) whose tip is tied to the base by a spherical cut
+// joint: assembled at q = 0, where the vertical row is redundant (the rope
+// is stretched) and dropped, the two horizontal rows kept.
+ModelCase hanging_rope_loop(int n) {
+  std::string urdf = "<robot name=\"rope_" + std::to_string(n) + "\">\n<link name=\"l0\"/>\n";
+  for (int i = 1; i <= n; ++i) {
+    urdf += fmt::format(
+        "<link name=\"l{0}\"><inertial><origin xyz=\"0 0 -0.0005\"/><mass value=\"0.01\"/>"
+        "<inertia ixx=\"1e-6\" iyy=\"1e-6\" izz=\"1e-7\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>\n"
+        "<joint name=\"j{0}\" type=\"continuous\"><parent link=\"l{1}\"/><child link=\"l{0}\"/>"
+        "<origin xyz=\"0 0 -0.001\"/><axis xyz=\"{2}\"/></joint>\n",
+        i, i - 1, i % 2 ? "0 1 0" : "1 0 0");
+  }
+  urdf += "</robot>\n";
+  const std::string cuts = fmt::format(
+      "<loop_joints>\n  <loop_joint name=\"tip_to_base\" type=\"spherical\">\n"
+      "    <parent link=\"l{}\"/>\n    <child link=\"l0\"/>\n    <origin xyz=\"0 0 0\"/>\n"
+      "    <child_origin xyz=\"0 0 {}\"/>\n  </loop_joint>\n</loop_joints>\n",
+      n, -0.001 * n);
+  return {"loops_rope_" + std::to_string(n), urdf, cuts};
+}
+
+}  // namespace
+
 std::vector<ModelCase> long_chains() {
-  return {{"chain_1000", chain_urdf(1000, 2026)}, {"chain_10000", chain_urdf(10000, 2026)}};
+  return {{"chain_1000", chain_urdf(1000, 2026)}, {"chain_10000", chain_urdf(10000, 2026)}, hanging_rope_loop(300)};
 }
 
 const ModelCase& find_model_case(const std::string& name) {

@@ -35,7 +35,9 @@ std::vector<ModelCase> loop_models();
 std::vector<ModelCase> all_models();
 
 /// Serial revolute chains of 1000 and 10 000 joints (issue 20: O(n) forward
-/// dynamics); in no list above, since a dense reference on them is O(n^3).
+/// dynamics), and a hanging rope of 300 joints tied back to its base
+/// (loops_rope_300); in no list above, since a dense reference on the chains
+/// is O(n^3) and the rope's only assembled state here is its singular one.
 std::vector<ModelCase> long_chains();
 
 /// The case of all_models() or long_chains() with this name; throws

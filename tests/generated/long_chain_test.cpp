@@ -10,7 +10,9 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
+#include <cstdio>
 #include <random>
+#include <string>
 #include <vector>
 
 #include <jrgen/articulated.hpp>
@@ -20,6 +22,8 @@
 #include "common/tolerance.hpp"
 #include "gen_chain_1000.hpp"
 #include "gen_chain_10000.hpp"
+#include "gen_loops_rope_300.hpp"
+#include "gen_loops_rope_300_steps.hpp"
 #include "reference/reference_dynamics.hpp"
 #include "topology/topology.hpp"
 
@@ -71,6 +75,39 @@ TEST(LongChain, ThousandJoints) {
 
 TEST(LongChain, TenThousandJoints) {
   check_chain("chain_10000", &gen_chain_10000::forward_dynamics, &gen_chain_10000::last_error, false);
+}
+
+// The rope tied back to its base (loops_rope_300, assembled at q = 0 with
+// its vertical row dropped): the runtime's articulated-body route for loops
+// against M and Steps 1-4 of the same model generated with --singular
+// proximal (which takes the paper's route).  Both solve eq. (17) backward
+// stably, so they agree within eps times the conditioning of the system;
+// 1e-9 leaves room over what is seen (printed), and a wrong term gives O(1).
+// qdd also satisfies Phiq qdd = gamma to the rows' scale.
+TEST(LongChain, RopeLoopArticulatedRouteMatchesSteps) {
+  const int nv = gen_loops_rope_300::nv, nc = gen_loops_rope_300::nc;
+  ASSERT_EQ(nc, 2);
+  std::mt19937_64 rng(21);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(gen_loops_rope_300::nq), v(nv), tau(nv);
+  for (int i = 0; i < nv; ++i) {
+    v[i] = 0.1 * u(rng);
+    tau[i] = 0.01 * u(rng);
+  }
+  Eigen::VectorXd a(nv), b(nv), la(nc), lb(nc);
+  ASSERT_EQ(gen_loops_rope_300::forward_dynamics(q.data(), v.data(), tau.data(), a.data(), la.data()), 0)
+      << gen_loops_rope_300::last_error();
+  ASSERT_EQ(gen_loops_rope_300_steps::forward_dynamics(q.data(), v.data(), tau.data(), b.data(), lb.data()), 0)
+      << gen_loops_rope_300_steps::last_error();
+  std::printf("rope: qdd differ by %.2e, lambda by %.2e (relative)\n", (a - b).norm() / b.norm(),
+              (la - lb).norm() / lb.norm());
+  EXPECT_LE((a - b).norm(), 1e-9 * b.norm());
+  EXPECT_LE((la - lb).norm(), 1e-9 * lb.norm());
+  Eigen::MatrixXd Phiq(nc, nv);
+  Eigen::VectorXd gamma(nc);
+  gen_loops_rope_300_steps::constraint_jacobian(q.data(), Phiq.data());
+  gen_loops_rope_300_steps::constraint_gamma(q.data(), v.data(), gamma.data());
+  EXPECT_LE((Phiq * a - gamma).norm(), 100.0 * nv * kEps * (Phiq.norm() * a.norm() + gamma.norm()));
 }
 
 }  // namespace
