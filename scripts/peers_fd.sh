@@ -31,6 +31,7 @@ while [ $# -gt 0 ]; do
   shift
 done
 build="${build:-$root/build-peers}"
+mkdir -p "$build" && build="$(cd "$build" && pwd)"
 out="${out:-$build/peers}"
 launcher=()
 command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
@@ -44,6 +45,7 @@ else
 fi
 cmake --build "$build" -j"${JOBS:-2}" --target "${targets[@]}"
 mkdir -p "$out"
+out="$(cd "$out" && pwd)"  # the programs run from inside it
 pin_cmd=()
 command -v taskset >/dev/null && pin_cmd=(taskset -c "$cpu")
 jsons=()

@@ -269,34 +269,54 @@ Program::Emitted Program::emit(const std::string& prefix) const {
     }
   for (const Output& o : outputs_) use(o.value, o.function);
 
+  // Statements in demand order: each output preceded by the nodes of its
+  // function it needs, depth first (operands left to right), so a value is
+  // computed next to its use.  Creation order (all kinematics, then all of M,
+  // ...) keeps thousands of values alive at once, which the compiler spills;
+  // in demand order the straight-line code needs fewer registers and fewer
+  // bytes of instructions (docs/specialization.md).
   std::vector<std::string> bodies(functions_.size());
-  std::size_t ci = 0, oi = 0;
-  auto flush = [&](std::size_t upto) {  // comments and outputs placed before node `upto`
-    while (true) {
-      const bool c = ci < comments_.size() && comments_[ci].after_node <= static_cast<int>(upto);
-      const bool o = oi < outputs_.size() && outputs_[oi].after_node <= static_cast<int>(upto);
-      if (!c && !o) break;
-      if (c && (!o || comments_[ci].after_node <= outputs_[oi].after_node)) {
-        bodies[comments_[ci].function] += "  // " + comments_[ci].text + "\n";
-        ++ci;
-      } else {
-        const Output& x = outputs_[oi++];
-        bodies[x.function] += fmt::format("  {} {} {};\n", x.target, x.accumulate ? "+=" : "=", operand(x.value));
-        ++out.statements;
-      }
-    }
-  };
-  for (std::size_t i = 0; i < nodes_.size(); ++i) {
-    flush(i);
+  std::vector<char> state(nodes_.size(), 0);  // 0 new, 1 operands pushed, 2 emitted
+  std::size_t ci = 0;
+  auto emit_node = [&](int i) {
+    for (; ci < comments_.size() && comments_[ci].after_node <= i; ++ci)
+      bodies[comments_[ci].function] += "  // " + comments_[ci].text + "\n";
     const Node& n = nodes_[i];
-    if (!is_live[i] || n.op == Op::kInput) continue;
     std::string& body = bodies[n.function];
     body += fmt::format("  const double t{} = {};\n", i, expression(n));
     if (slot[i] >= 0) body += fmt::format("  {}[{}] = t{};\n", spill_, slot[i], i);
     ++out.statements;
     count_op(n.op, out.total);
+  };
+  auto demand = [&](int root, int function) {
+    std::vector<int> stack{root};
+    while (!stack.empty()) {
+      const int i = stack.back();
+      const Node& n = nodes_[i];
+      if (state[i] == 2 || n.op == Op::kInput || n.function != function) {
+        stack.pop_back();
+      } else if (state[i] == 0) {
+        state[i] = 1;
+        for (Value v : {n.b, n.a})
+          if (!v.is_constant()) stack.push_back(v.node());
+      } else {
+        stack.pop_back();
+        state[i] = 2;
+        emit_node(i);
+      }
+    }
+  };
+  for (const Output& x : outputs_) {
+    if (!x.value.is_constant()) demand(x.value.node(), x.function);
+    for (; ci < comments_.size() && comments_[ci].after_node <= x.after_node && comments_[ci].function < x.function;
+         ++ci)
+      bodies[comments_[ci].function] += "  // " + comments_[ci].text + "\n";
+    bodies[x.function] += fmt::format("  {} {} {};\n", x.target, x.accumulate ? "+=" : "=", operand(x.value));
+    ++out.statements;
   }
-  flush(nodes_.size());
+  // Values read only by later functions (through the spill array).
+  for (std::size_t i = 0; i < nodes_.size(); ++i)
+    if (is_live[i] && nodes_[i].op != Op::kInput && state[i] != 2) demand(static_cast<int>(i), nodes_[i].function);
 
   const std::vector<std::string> params = parameter_names(params_);
   for (std::size_t f = 1; f < functions_.size(); ++f) {

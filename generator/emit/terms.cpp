@@ -315,7 +315,13 @@ TermsBlock tree_terms(const topology::Tree& t, const Options& options, long long
                                  size_text(crb), size_text(aba), limit);
     return block;
   }
-  const bool articulated = aba_fits && (!crb_fits || aba_flops < crb_flops);
+  bool articulated = aba_fits && (!crb_fits || aba_flops < crb_flops);
+  // Internal, for measurements: JRGEN_TERMS_ROUTE=articulated|composite
+  // forces a route that fits.
+  if (const char* env = std::getenv("JRGEN_TERMS_ROUTE")) {
+    if (std::string(env) == "articulated" && aba_fits) articulated = true;
+    if (std::string(env) == "composite" && crb_fits) articulated = false;
+  }
   TermsBlock block = articulated ? articulated_block(aba) : composite_block(crb);
   block.unfolded_ops = (articulated ? articulated_program(t, options, false) : composite_program(t, options, false))
                            .emitted.block_ops;
