@@ -271,11 +271,10 @@ TermsBlock runtime_block(const topology::Tree& t, const Options& options, long l
   }
   block.route = TermsRoute::kRuntimeArticulated;
   block.include = "#include <jrgen/articulated.hpp>\n";
-  block.definitions =
+  block.definitions = fmt::format(
       "// ---- forward_dynamics: the runtime's articulated-body algorithm, O(n) ----\n"
-      "thread_local jr::ArticulatedState g_articulated[nb_articulated];\n\n" +
-      std::string(kCheckArticulated);
-  block.definitions.replace(block.definitions.find("nb_articulated"), 14, std::to_string(t.bodies.size()));
+      "thread_local jr::ArticulatedState g_articulated[{}];\n\n{}",
+      t.bodies.size(), kCheckArticulated);
   block.fd_body = fmt::format(
       "  // The runtime's articulated-body algorithm (O(n)): qdd in g_z and the\n"
       "  // pivots D in g_Dinv, Lemma 2 order; a failed pivot stops it (check_articulated).\n"
