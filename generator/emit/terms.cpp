@@ -92,26 +92,37 @@ Built articulated_program(const topology::Tree& t, const Options& options, bool 
   return b;
 }
 
-// kinematics + M (packed, eq. 14/18) + z = tau - h (Lemma 2 order).
+// The blocks the tree's composite-rigid-body route and the loops share:
+// kinematics, M (packed, eq. 14/18) into L, z = tau - h (Lemma 2 order).
+struct Kinematics {
+  std::vector<BodyFrame> frames;
+  std::vector<BodyMotion6> motion;
+};
+Kinematics composite_blocks(Program& program, const topology::Tree& t, const Options& options) {
+  program.begin_block("kinematics");
+  program.comment("Joint transforms X_PC and motion subspaces S (constants folded, sin/cos once per joint).");
+  Kinematics k{joint_frames(program, t), {}};
+  k.motion = body_velocities(program, t, k.frames);
+  program.begin_block("M (eq. 14, 18)");
+  program.comment("M, eq. (18): composite inertias leaves first (eq. 14), packed as Step 1 factors it.");
+  const std::vector<Value> M = mass_matrix_packed(program, t, k.frames);
+  for (std::size_t i = 0; i < M.size(); ++i) program.output(fmt::format("L[{}]", i), M[i]);
+  program.begin_block("h (Newton-Euler)");
+  program.comment(fmt::format("Q = tau - h ({}), Lemma 2 order.", bias_terms(t, options)));
+  const std::vector<Value> h = bias_forces(program, t, k.frames, k.motion, options.gravity);
+  for (int j = 0; j < t.nv; ++j)
+    program.output(fmt::format("z[{}]", j), program.input(fmt::format("tau[{}]", t.dof_user[j])) - h[j]);
+  return k;
+}
+
+// kinematics + M + z = tau - h, for a tree's composite-rigid-body route.
 Built composite_program(const topology::Tree& t, const Options& options, bool fold = true) {
   const std::string params = "const double* q, const double* v, const double* tau, double* L, double* z";
   Program program(params, "g_crb_spill");
   program.fold_identities = fold;
   program.begin_function("composite_terms_part",
                          "forward_dynamics: specialized kinematics, M (eq. 14, 18) and Q = tau - h");
-  program.begin_block("kinematics");
-  program.comment("Joint transforms X_PC and motion subspaces S (constants folded, sin/cos once per joint).");
-  const std::vector<BodyFrame> frames = joint_frames(program, t);
-  const std::vector<BodyMotion6> motion = body_velocities(program, t, frames);
-  program.begin_block("M (eq. 14, 18)");
-  program.comment("M, eq. (18): composite inertias leaves first (eq. 14), packed as Step 1 factors it.");
-  const std::vector<Value> M = mass_matrix_packed(program, t, frames);
-  for (std::size_t k = 0; k < M.size(); ++k) program.output(fmt::format("L[{}]", k), M[k]);
-  program.begin_block("h (Newton-Euler)");
-  program.comment(fmt::format("Q = tau - h ({}), Lemma 2 order.", bias_terms(t, options)));
-  const std::vector<Value> h = bias_forces(program, t, frames, motion, options.gravity);
-  for (int j = 0; j < t.nv; ++j)
-    program.output(fmt::format("z[{}]", j), program.input(fmt::format("tau[{}]", t.dof_user[j])) - h[j]);
+  composite_blocks(program, t, options);
   Built b{program.emit(), ""};
   b.definitions = driver(b.emitted, "composite_terms", params, "q, v, tau, L, z", "g_crb_spill");
   return b;
@@ -214,23 +225,11 @@ Built loop_program(const topology::Tree& t, const Options& options, bool fold = 
   Program program(params, "g_terms_spill");
   program.fold_identities = fold;
   program.begin_function("loop_terms_part", "forward_dynamics: specialized kinematics, M, Q = tau - h, Phiq, gamma");
-  program.begin_block("kinematics");
-  program.comment("Joint transforms X_PC and motion subspaces S (constants folded, sin/cos once per joint).");
-  const std::vector<BodyFrame> frames = joint_frames(program, t);
-  const std::vector<BodyMotion6> motion = body_velocities(program, t, frames);
-  program.begin_block("M (eq. 14, 18)");
-  program.comment("M, eq. (18): composite inertias leaves first (eq. 14), packed as Step 1 factors it.");
-  const std::vector<Value> M = mass_matrix_packed(program, t, frames);
-  for (std::size_t k = 0; k < M.size(); ++k) program.output(fmt::format("L[{}]", k), M[k]);
-  program.begin_block("h (Newton-Euler)");
-  program.comment(fmt::format("Q = tau - h ({}), Lemma 2 order.", bias_terms(t, options)));
-  const std::vector<Value> h = bias_forces(program, t, frames, motion, options.gravity);
-  for (int j = 0; j < t.nv; ++j)
-    program.output(fmt::format("z[{}]", j), program.input(fmt::format("tau[{}]", t.dof_user[j])) - h[j]);
+  const Kinematics k = composite_blocks(program, t, options);
   program.begin_block("Phiq, gamma");
   program.comment("Phiq (packed, Lemma 3: each cut's rows touch only the dofs on its paths) and gamma.");
-  const ConstraintValues c = constraint_terms(program, t, frames, motion);
-  for (std::size_t k = 0; k < c.phiq_packed.size(); ++k) program.output(fmt::format("T[{}]", k), c.phiq_packed[k]);
+  const ConstraintValues c = constraint_terms(program, t, k.frames, k.motion);
+  for (std::size_t i = 0; i < c.phiq_packed.size(); ++i) program.output(fmt::format("T[{}]", i), c.phiq_packed[i]);
   for (std::size_t r = 0; r < c.gamma.size(); ++r) program.output(fmt::format("gamma[{}]", r), c.gamma[r]);
   Built b{program.emit(), ""};
   b.definitions = driver(b.emitted, "loop_terms", params, "q, v, tau, L, z, T, gamma", "g_terms_spill");

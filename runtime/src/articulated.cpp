@@ -1,7 +1,7 @@
 // jrgen runtime: the articulated-body algorithm (RBDA Table 7.1) and the
 // recursive Newton-Euler algorithm with accelerations.  Formulas (a), (b),
-// (c), (e), (f) are those of runtime.cpp, written again here for the
-// articulated inertias (6 x 6 matrices, which runtime.cpp never forms).
+// (e), (f) are shared with runtime.cpp (spatial.hpp); (c) is written here for
+// the articulated inertias (6 x 6 matrices, which runtime.cpp never forms).
 // With X_PC = (R, p), P = [p]x, motions map P -> C by M = [[R^T, 0], [-R^T P, R^T]]
 // and forces C -> P by F = M^T = [[1, P], [0, 1]] diag(R, R), so an inertia
 // maps C -> P by
@@ -10,12 +10,19 @@
 //       I_P = [[A' + P B'^T - B'' P,  B''], [B''^T,  C']].
 #include "jrgen/articulated.hpp"
 
+#include "spatial.hpp"
+
 #include <Eigen/Geometry>  // cross products
 #include <type_traits>
 
 namespace jr {
 
 namespace {
+
+using spatial::cross_force;
+using spatial::cross_motion;
+using spatial::force_to_parent;
+using spatial::motion_to_child;
 
 using Eigen::Matrix3d;
 using Eigen::Vector3d;
@@ -24,39 +31,6 @@ Matrix3d skew(const Vector3d& p) {
   Matrix3d P;
   P << 0.0, -p.z(), p.y(), p.z(), 0.0, -p.x(), -p.y(), p.x(), 0.0;
   return P;
-}
-
-// (a) motion P -> C.
-Vector6d motion_to_child(const BodyState& b, const Vector6d& m_P) {
-  const Vector3d w_P = m_P.head<3>(), v_P = m_P.tail<3>();
-  Vector6d m_C;
-  m_C.head<3>() = b.R.transpose() * w_P;
-  m_C.tail<3>() = b.R.transpose() * (v_P - b.p.cross(w_P));
-  return m_C;
-}
-
-// (b) force C -> P.
-Vector6d force_to_parent(const BodyState& b, const Vector6d& f_C) {
-  Vector6d f_P;
-  f_P.tail<3>() = b.R * f_C.tail<3>();
-  f_P.head<3>() = b.R * f_C.head<3>() + b.p.cross(f_P.tail<3>());
-  return f_P;
-}
-
-// (e) motion cross motion.
-Vector6d cross_motion(const Vector6d& a, const Vector6d& b) {
-  Vector6d out;
-  out.head<3>() = a.head<3>().cross(b.head<3>());
-  out.tail<3>() = a.head<3>().cross(b.tail<3>()) + a.tail<3>().cross(b.head<3>());
-  return out;
-}
-
-// (f) motion cross force.
-Vector6d cross_force(const Vector6d& v, const Vector6d& f) {
-  Vector6d out;
-  out.head<3>() = v.head<3>().cross(f.head<3>()) + v.tail<3>().cross(f.tail<3>());
-  out.tail<3>() = v.head<3>().cross(f.tail<3>());
-  return out;
 }
 
 // The body's rigid inertia about its origin as the 6 x 6 map (c):

@@ -15,6 +15,7 @@
 #include "jrgen/runtime.hpp"
 
 #include "kernels.hpp"
+#include "spatial.hpp"
 
 #include <Eigen/Geometry>
 #include <cmath>
@@ -22,6 +23,11 @@
 namespace jr {
 
 namespace {
+
+using spatial::cross_force;
+using spatial::cross_motion;
+using spatial::force_to_parent;
+using spatial::motion_to_child;
 
 using Eigen::Matrix3d;
 using Eigen::Vector3d;
@@ -55,23 +61,6 @@ Vector6d inertia_times(const SpatialInertia& I, const Vector6d& m) {
   return f;
 }
 
-// (a)
-Vector6d motion_to_child(const BodyState& b, const Vector6d& m_P) {
-  const Vector3d w_P = m_P.head<3>(), v_P = m_P.tail<3>();
-  Vector6d m_C;
-  m_C.head<3>() = b.R.transpose() * w_P;
-  m_C.tail<3>() = b.R.transpose() * (v_P - b.p.cross(w_P));
-  return m_C;
-}
-
-// (b)
-Vector6d force_to_parent(const BodyState& b, const Vector6d& f_C) {
-  Vector6d f_P;
-  f_P.tail<3>() = b.R * f_C.tail<3>();
-  f_P.head<3>() = b.R * f_C.head<3>() + b.p.cross(f_P.tail<3>());
-  return f_P;
-}
-
 // (d)
 void add_inertia_to_parent(const BodyState& b, const SpatialInertia& I_C, SpatialInertia& I_P) {
   const Vector3d hr = b.R * I_C.h;
@@ -80,22 +69,6 @@ void add_inertia_to_parent(const BodyState& b, const SpatialInertia& I_C, Spatia
   I_P.I += b.R * I_C.I * b.R.transpose() +
            (2.0 * b.p.dot(hr) + I_C.m * b.p.squaredNorm()) * Matrix3d::Identity() -
            I_C.m * b.p * b.p.transpose() - b.p * hr.transpose() - hr * b.p.transpose();
-}
-
-// (e)
-Vector6d cross_motion(const Vector6d& a, const Vector6d& b) {
-  Vector6d out;
-  out.head<3>() = a.head<3>().cross(b.head<3>());
-  out.tail<3>() = a.head<3>().cross(b.tail<3>()) + a.tail<3>().cross(b.head<3>());
-  return out;
-}
-
-// (f)
-Vector6d cross_force(const Vector6d& v, const Vector6d& f) {
-  Vector6d out;
-  out.head<3>() = v.head<3>().cross(f.head<3>()) + v.tail<3>().cross(f.tail<3>());
-  out.tail<3>() = v.head<3>().cross(f.tail<3>());
-  return out;
 }
 
 // The body's own inertia about its origin, from mass, com and I_com.
