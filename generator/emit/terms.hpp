@@ -46,7 +46,9 @@ struct TermsBlock {
 /// Above this many statements a specialized program is not emitted (compile
 /// time grows about linearly, near 1 ms per statement at -O3, and code far
 /// beyond the instruction caches loses what folding saved).
-/// JRGEN_TERMS_LIMIT overrides (0: always the runtime's terms).
+/// JRGEN_TERMS_LIMIT overrides (0: always the runtime's terms), and
+/// JRGEN_TERMS_ROUTE=articulated|composite forces a tree's specialized route:
+/// both internal, for tests and measurements.
 inline constexpr long long kMaxTermStatements = 40000;
 long long terms_limit();
 
