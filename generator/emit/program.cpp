@@ -277,12 +277,21 @@ Program::Emitted Program::emit(const std::string& prefix) const {
   // bytes of instructions (docs/specialization.md).
   std::vector<std::string> bodies(functions_.size());
   std::vector<char> state(nodes_.size(), 0);  // 0 new, 1 operands pushed, 2 emitted
-  std::size_t ci = 0;
+  // Each comment goes with the first statement created after it (the first
+  // live node of its function from its position on), and is written where
+  // that statement is; comments with none follow their function's code.
+  std::vector<std::vector<std::size_t>> comments_at(nodes_.size());
+  std::vector<std::size_t> trailing;
+  for (std::size_t c = 0; c < comments_.size(); ++c) {
+    std::size_t j = static_cast<std::size_t>(comments_[c].after_node);
+    while (j < nodes_.size() && (!is_live[j] || nodes_[j].op == Op::kInput || nodes_[j].function != comments_[c].function))
+      ++j;
+    (j < nodes_.size() ? comments_at[j] : trailing).push_back(c);
+  }
   auto emit_node = [&](int i) {
-    for (; ci < comments_.size() && comments_[ci].after_node <= i; ++ci)
-      bodies[comments_[ci].function] += "  // " + comments_[ci].text + "\n";
     const Node& n = nodes_[i];
     std::string& body = bodies[n.function];
+    for (std::size_t c : comments_at[i]) body += "  // " + comments_[c].text + "\n";
     body += fmt::format("  const double t{} = {};\n", i, expression(n));
     if (slot[i] >= 0) body += fmt::format("  {}[{}] = t{};\n", spill_, slot[i], i);
     ++out.statements;
@@ -308,15 +317,13 @@ Program::Emitted Program::emit(const std::string& prefix) const {
   };
   for (const Output& x : outputs_) {
     if (!x.value.is_constant()) demand(x.value.node(), x.function);
-    for (; ci < comments_.size() && comments_[ci].after_node <= x.after_node && comments_[ci].function < x.function;
-         ++ci)
-      bodies[comments_[ci].function] += "  // " + comments_[ci].text + "\n";
     bodies[x.function] += fmt::format("  {} {} {};\n", x.target, x.accumulate ? "+=" : "=", operand(x.value));
     ++out.statements;
   }
   // Values read only by later functions (through the spill array).
   for (std::size_t i = 0; i < nodes_.size(); ++i)
     if (is_live[i] && nodes_[i].op != Op::kInput && state[i] != 2) demand(static_cast<int>(i), nodes_[i].function);
+  for (std::size_t c : trailing) bodies[comments_[c].function] += "  // " + comments_[c].text + "\n";
 
   const std::vector<std::string> params = parameter_names(params_);
   for (std::size_t f = 1; f < functions_.size(); ++f) {

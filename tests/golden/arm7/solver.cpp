@@ -403,40 +403,21 @@ void step4_backward(const double* __restrict L, const double* __restrict Dinv, d
 void composite_terms_part(const double* q, const double* v, const double* tau, double* L, double* z) {
   L[0] = 0.0012799999999999999;
   L[1] = 0.0;
-  // Joint transforms X_PC and motion subspaces S (constants folded, sin/cos once per joint).
-  // body 0: joint transform X_PC of 'joint_7' (revolute)
-  // body 1: joint transform X_PC of 'joint_6' (revolute)
   const double t6 = std::cos(q[5]);
-  // body 2: joint transform X_PC of 'joint_5' (revolute)
-  // body 3: joint transform X_PC of 'joint_4' (revolute)
-  // body 4: joint transform X_PC of 'joint_3' (revolute)
-  // body 5: joint transform X_PC of 'joint_2' (revolute)
-  // body 6: joint transform X_PC of 'joint_1' (revolute)
-  // body 6: velocity and velocity-product acceleration of 'joint_1'
-  // body 5: velocity and velocity-product acceleration of 'joint_2'
-  // body 4: velocity and velocity-product acceleration of 'joint_3'
-  // body 3: velocity and velocity-product acceleration of 'joint_4'
-  // body 2: velocity and velocity-product acceleration of 'joint_5'
-  // body 1: velocity and velocity-product acceleration of 'joint_6'
-  // body 0: velocity and velocity-product acceleration of 'joint_7'
-  // M, eq. (18): composite inertias leaves first (eq. 14), packed as Step 1 factors it.
-  // body 0: composite inertia of 'joint_7' added to its parent
-  // body 1: composite inertia of 'joint_6' added to its parent
-  // body 2: composite inertia of 'joint_5' added to its parent
-  // body 3: composite inertia of 'joint_4' added to its parent
-  // body 4: composite inertia of 'joint_3' added to its parent
-  // body 5: composite inertia of 'joint_2' added to its parent
-  // body 0: columns of M of 'joint_7' (eq. 18)
   const double t557 = t6 * 0.0012799999999999999;
   L[2] = t557;
+  // body 2: joint transform X_PC of 'joint_5' (revolute)
   const double t9 = std::sin(q[4]);
+  // body 1: joint transform X_PC of 'joint_6' (revolute)
   const double t5 = std::sin(q[5]);
+  // body 0: columns of M of 'joint_7' (eq. 18)
   const double t556 = t5 * 0.0012799999999999999;
   const double t559 = t9 * t556;
   const double t560 = -t559;
   L[3] = t560;
   const double t14 = std::cos(q[3]);
   const double t565 = t14 * t557;
+  // body 3: joint transform X_PC of 'joint_4' (revolute)
   const double t13 = std::sin(q[3]);
   const double t10 = std::cos(q[4]);
   const double t558 = t10 * t556;
@@ -445,6 +426,7 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   L[4] = t567;
   const double t18 = std::cos(q[2]);
   const double t572 = t18 * t559;
+  // body 4: joint transform X_PC of 'joint_3' (revolute)
   const double t17 = std::sin(q[2]);
   const double t563 = t14 * t558;
   const double t561 = t13 * t557;
@@ -454,6 +436,7 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   L[5] = t574;
   const double t22 = std::cos(q[1]);
   const double t578 = t22 * t567;
+  // body 5: joint transform X_PC of 'joint_2' (revolute)
   const double t21 = std::sin(q[1]);
   const double t570 = t18 * t564;
   const double t568 = t17 * t559;
@@ -461,10 +444,14 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t579 = t21 * t571;
   const double t581 = t578 - t579;
   L[6] = t581;
+  // Joint transforms X_PC and motion subspaces S (constants folded, sin/cos once per joint).
+  // body 0: joint transform X_PC of 'joint_7' (revolute)
   const double t1 = std::sin(q[6]);
   const double t275 = t1 * 0.00197225;
   const double t277 = t1 * t275;
   const double t2 = std::cos(q[6]);
+  // M, eq. (18): composite inertias leaves first (eq. 14), packed as Step 1 factors it.
+  // body 0: composite inertia of 'joint_7' added to its parent
   const double t274 = t2 * 0.00197225;
   const double t279 = t2 * t274;
   const double t280 = t277 + t279;
@@ -479,7 +466,6 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t302 = t299 - t300;
   L[8] = t302;
   const double t289 = t6 * 0.06452000000000001;
-  // body 1: columns of M of 'joint_6' (eq. 18)
   const double t584 = t10 * t289;
   const double t588 = t584 * 0.21;
   const double t293 = t5 * (-4.3199999999999995e-07);
@@ -487,6 +473,7 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t295 = t293 + t294;
   const double t341 = t9 * t295;
   const double t304 = t289 * 0.19;
+  // body 1: columns of M of 'joint_6' (eq. 18)
   const double t583 = t287 + t304;
   const double t592 = t10 * t583;
   const double t593 = t341 + t592;
@@ -503,6 +490,7 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t613 = t13 * t594;
   const double t614 = t612 + t613;
   L[10] = t614;
+  // body 1: composite inertia of 'joint_6' added to its parent
   const double t288 = t5 * 0.06452000000000001;
   const double t597 = t13 * t288;
   const double t599 = t14 * t584;
@@ -640,7 +628,6 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t370 = t9 * t344;
   const double t371 = t369 + t370;
   const double t412 = t13 * t371;
-  // body 3: columns of M of 'joint_4' (eq. 18)
   const double t730 = -t412;
   const double t335 = t10 * 0.03678;
   const double t337 = t335 + t336;
@@ -653,7 +640,9 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t338 = t291 + 0.8504999999999999;
   const double t340 = t338 + 0.21600000000000003;
   const double t391 = t14 * t340;
+  // body 3: columns of M of 'joint_4' (eq. 18)
   const double t724 = -t391;
+  // body 2: composite inertia of 'joint_5' added to its parent
   const double t331 = t9 * 0.03678;
   const double t334 = t333 - t331;
   const double t392 = t13 * t334;
@@ -725,6 +714,7 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t426 = t13 * t400;
   const double t427 = t425 + t426;
   const double t389 = t14 * t334;
+  // body 3: composite inertia of 'joint_4' added to its parent
   const double t387 = t13 * t340;
   const double t390 = t389 - t387;
   const double t428 = t390 * 0.19;
@@ -745,6 +735,7 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t461 = t17 * t434;
   const double t464 = t463 - t461;
   const double t445 = t18 * t390;
+  // body 4: composite inertia of 'joint_3' added to its parent
   const double t443 = t17 * t395;
   const double t446 = t445 - t443;
   const double t484 = t446 * 0.21;
@@ -794,6 +785,7 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   L[26] = t524;
   const double t450 = t396 + 2.0475;
   const double t452 = t450 + 0.4;
+  // body 5: composite inertia of 'joint_2' added to its parent
   const double t502 = t22 * t452;
   const double t503 = t21 * t446;
   const double t505 = t502 - t503;
@@ -824,9 +816,13 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t554 = t553 - t528;
   const double t555 = t554 + 0.0236;
   L[27] = t555;
+  // body 6: joint transform X_PC of 'joint_1' (revolute)
+  // body 6: velocity and velocity-product acceleration of 'joint_1'
+  // body 5: velocity and velocity-product acceleration of 'joint_2'
   const double t30 = t21 * v[0];
   const double t40 = t30 * 0.21;
   const double t45 = t18 * t40;
+  // body 4: velocity and velocity-product acceleration of 'joint_3'
   const double t38 = v[1] * 0.21;
   const double t46 = t17 * t38;
   const double t48 = t45 - t46;
@@ -849,10 +845,12 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t53 = t18 * v[1];
   const double t54 = t17 * t30;
   const double t56 = t53 + t54;
+  // body 3: velocity and velocity-product acceleration of 'joint_4'
   const double t78 = t56 * 0.19;
   const double t81 = t44 + t78;
   const double t83 = t14 * t81;
   const double t93 = t56 - v[3];
+  // body 2: velocity and velocity-product acceleration of 'joint_5'
   const double t124 = t93 * 0.21;
   const double t127 = t83 + t124;
   const double t133 = t9 * t127;
@@ -880,11 +878,13 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t139 = t10 * t93;
   const double t140 = t9 * t88;
   const double t142 = t139 - t140;
+  // body 1: velocity and velocity-product acceleration of 'joint_6'
   const double t174 = t142 * 0.19;
   const double t177 = t131 + t174;
   const double t181 = t6 * t177;
   const double t182 = t179 + t181;
   const double t194 = t142 + v[5];
+  // body 0: velocity and velocity-product acceleration of 'joint_7'
   const double t225 = t194 * 0.081;
   const double t228 = t182 + t225;
   const double t231 = t2 * t228;
@@ -892,17 +892,6 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t233 = t2 * t229;
   const double t234 = t1 * t228;
   const double t236 = t233 - t234;
-  // body 5: columns of M of 'joint_2' (eq. 18)
-  // body 6: columns of M of 'joint_1' (eq. 18)
-  // Q = tau - h (Coriolis and centrifugal terms, gravity, joint damping), Lemma 2 order.
-  // body 6: acceleration of 'joint_1' with gravity
-  // body 5: acceleration of 'joint_2' with gravity
-  // body 4: acceleration of 'joint_3' with gravity
-  // body 3: acceleration of 'joint_4' with gravity
-  // body 2: acceleration of 'joint_5' with gravity
-  // body 1: acceleration of 'joint_6' with gravity
-  // body 0: acceleration of 'joint_7' with gravity
-  // body 0: Newton-Euler force of 'joint_7'
   const double t853 = t236 * 0.55;
   const double t237 = t1 * t194;
   const double t238 = t2 * t190;
@@ -913,6 +902,7 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t240 = t2 * t194;
   const double t241 = t1 * t190;
   const double t243 = t240 - t241;
+  // body 0: Newton-Euler force of 'joint_7'
   const double t849 = t243 * 0.01925;
   const double t852 = t232 * 0.55;
   const double t855 = t849 + t852;
@@ -959,21 +949,10 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t221 = t200 + t219;
   const double t908 = t221 * 0.0012799999999999999;
   const double t913 = t894 + t908;
-  // body 1: Newton-Euler force of 'joint_6'
-  // body 2: Newton-Euler force of 'joint_5'
-  // body 3: Newton-Euler force of 'joint_4'
-  // body 4: Newton-Euler force of 'joint_3'
-  // body 5: Newton-Euler force of 'joint_2'
   // body 6: Newton-Euler force of 'joint_1'
   // body 0: bias forces of 'joint_7'
   const double t1373 = v[6] * 0.5;
   const double t1374 = t913 + t1373;
-  // body 1: bias forces of 'joint_6'
-  // body 2: bias forces of 'joint_5'
-  // body 3: bias forces of 'joint_4'
-  // body 4: bias forces of 'joint_3'
-  // body 5: bias forces of 'joint_2'
-  // body 6: bias forces of 'joint_1'
   const double t1536 = tau[6] - t1374;
   z[0] = t1536;
   const double t185 = t5 * t177;
@@ -984,6 +963,7 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t192 = t5 * t138;
   const double t193 = t191 + t192;
   const double t918 = t193 * 0.00108;
+  // body 1: Newton-Euler force of 'joint_6'
   const double t917 = t194 * 0.00072;
   const double t919 = t918 - t917;
   const double t926 = t923 - t919;
@@ -1016,6 +996,11 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t144 = v[4] * t135;
   const double t64 = t33 * 0.21;
   const double t67 = t18 * t64;
+  // body 5: columns of M of 'joint_2' (eq. 18)
+  // body 6: columns of M of 'joint_1' (eq. 18)
+  // Q = tau - h (Coriolis and centrifugal terms, gravity, joint damping), Lemma 2 order.
+  // body 6: acceleration of 'joint_1' with gravity
+  // body 5: acceleration of 'joint_2' with gravity
   const double t794 = t21 * 9.81;
   const double t800 = t17 * t794;
   const double t802 = t67 + t800;
@@ -1032,18 +1017,22 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t102 = t73 * 0.19;
   const double t58 = v[2] * t48;
   const double t66 = t17 * t64;
+  // body 4: acceleration of 'joint_3' with gravity
   const double t797 = t18 * t794;
   const double t799 = t66 - t797;
   const double t803 = t58 + t799;
+  // body 3: acceleration of 'joint_4' with gravity
   const double t805 = t102 + t803;
   const double t808 = t14 * t805;
   const double t809 = t807 + t808;
   const double t94 = v[3] * t84;
   const double t814 = t809 - t94;
+  // body 2: acceleration of 'joint_5' with gravity
   const double t816 = t150 + t814;
   const double t819 = t10 * t816;
   const double t820 = t818 + t819;
   const double t825 = t144 + t820;
+  // body 1: acceleration of 'joint_6' with gravity
   const double t827 = t201 + t825;
   const double t831 = t6 * t827;
   const double t810 = t14 * t796;
@@ -1089,6 +1078,7 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t839 = t828 - t253;
   const double t840 = t1 * t839;
   const double t251 = t170 * 0.081;
+  // body 0: acceleration of 'joint_7' with gravity
   const double t838 = t251 + t836;
   const double t841 = t2 * t838;
   const double t842 = t840 + t841;
@@ -1145,6 +1135,7 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t1391 = t1389 + t1390;
   const double t1393 = t1384 + t1391;
   const double t1395 = t1004 + t1393;
+  // body 1: bias forces of 'joint_6'
   const double t1400 = v[5] * 0.5;
   const double t1401 = t1395 + t1400;
   const double t1538 = tau[5] - t1401;
@@ -1155,6 +1146,7 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t1057 = t131 * t1020;
   const double t1015 = t131 * 1.7;
   const double t1010 = t143 * 0.0357;
+  // body 2: Newton-Euler force of 'joint_5'
   const double t1009 = t142 * 0.12919999999999998;
   const double t1011 = t1010 - t1009;
   const double t1019 = t1015 - t1011;
@@ -1234,13 +1226,16 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t1416 = t5 * t1394;
   const double t1418 = t1415 - t1416;
   const double t1423 = t1101 + t1418;
+  // body 2: bias forces of 'joint_5'
   const double t1427 = v[4] * 0.5;
   const double t1428 = t1423 + t1427;
   const double t1540 = tau[4] - t1428;
   z[2] = t1540;
+  // body 3: bias forces of 'joint_4'
   const double t1455 = v[3] * 0.5;
   const double t1111 = t83 * 2.7;
   const double t1106 = t92 * (-0.081);
+  // body 3: Newton-Euler force of 'joint_4'
   const double t1105 = t93 * 0.21600000000000003;
   const double t1107 = t1106 - t1105;
   const double t1115 = t1111 - t1107;
@@ -1386,6 +1381,7 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t1239 = t44 * t1210;
   const double t1207 = t44 * 3.0;
   const double t1202 = t57 * 0.09;
+  // body 4: Newton-Euler force of 'joint_3'
   const double t1201 = t56 * 0.39;
   const double t1203 = t1202 - t1201;
   const double t1209 = t1207 - t1203;
@@ -1457,6 +1453,7 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t1472 = t13 * t1448;
   const double t1473 = t1471 + t1472;
   const double t1478 = t1286 + t1473;
+  // body 4: bias forces of 'joint_3'
   const double t1482 = v[2] * 0.5;
   const double t1483 = t1478 + t1482;
   const double t1544 = tau[2] - t1483;
@@ -1465,6 +1462,7 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t1304 = v[1] * (-0.012);
   const double t1305 = t1303 + t1304;
   const double t1323 = t30 * t1305;
+  // body 5: Newton-Euler force of 'joint_2'
   const double t1298 = t30 * 0.08860000000000001;
   const double t1325 = t32 * t1298;
   const double t1327 = t1323 - t1325;
@@ -1578,6 +1576,7 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t1500 = t1498 + t1499;
   const double t1502 = t1493 + t1500;
   const double t1504 = t1359 + t1502;
+  // body 5: bias forces of 'joint_2'
   const double t1509 = v[1] * 0.5;
   const double t1510 = t1504 + t1509;
   const double t1546 = tau[1] - t1510;
@@ -1612,6 +1611,7 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t1503 = t1358 + t1501;
   const double t1525 = t21 * t1503;
   const double t1527 = t1524 - t1525;
+  // body 6: bias forces of 'joint_1'
   const double t1533 = v[0] * 0.5;
   const double t1534 = t1527 + t1533;
   const double t1548 = tau[0] - t1534;
@@ -1626,55 +1626,52 @@ void composite_terms(const double* q, const double* v, const double* tau, double
 // ---- mass_matrix() and bias_forces(): specialized programs ----
 // mass_matrix(): specialized kinematics and M (eq. 14, 18)
 void mass_matrix_part(const double* q, double* M) {
-  // body 0: joint transform X_PC of 'joint_7' (revolute)
-  // body 1: joint transform X_PC of 'joint_6' (revolute)
-  // body 2: joint transform X_PC of 'joint_5' (revolute)
-  // body 3: joint transform X_PC of 'joint_4' (revolute)
-  // body 4: joint transform X_PC of 'joint_3' (revolute)
-  // body 5: joint transform X_PC of 'joint_2' (revolute)
   const double t22 = std::cos(q[1]);
   const double t14 = std::cos(q[3]);
   const double t6 = std::cos(q[5]);
-  // body 6: joint transform X_PC of 'joint_1' (revolute)
-  // body 0: composite inertia of 'joint_7' added to its parent
-  // body 1: composite inertia of 'joint_6' added to its parent
   const double t43 = t6 * 0.06452000000000001;
   const double t44 = t43 + 0.4465;
   const double t45 = t44 + 0.12919999999999998;
-  // body 2: composite inertia of 'joint_5' added to its parent
   const double t92 = t45 + 0.8504999999999999;
   const double t94 = t92 + 0.21600000000000003;
-  // body 3: composite inertia of 'joint_4' added to its parent
   const double t145 = t14 * t94;
+  // body 3: joint transform X_PC of 'joint_4' (revolute)
   const double t13 = std::sin(q[3]);
   const double t10 = std::cos(q[4]);
+  // body 1: joint transform X_PC of 'joint_6' (revolute)
   const double t5 = std::sin(q[5]);
+  // body 1: composite inertia of 'joint_6' added to its parent
   const double t42 = t5 * 0.06452000000000001;
   const double t87 = t10 * t42;
+  // body 2: joint transform X_PC of 'joint_5' (revolute)
   const double t9 = std::sin(q[4]);
+  // body 2: composite inertia of 'joint_5' added to its parent
   const double t85 = t9 * 0.03678;
   const double t88 = t87 - t85;
   const double t146 = t13 * t88;
   const double t147 = t145 + t146;
   const double t148 = t147 + 1.2825;
   const double t150 = t148 + 0.39;
-  // body 4: composite inertia of 'joint_3' added to its parent
   const double t204 = t150 + 2.0475;
   const double t206 = t204 + 0.4;
   // body 5: composite inertia of 'joint_2' added to its parent
   const double t256 = t22 * t206;
+  // body 5: joint transform X_PC of 'joint_2' (revolute)
   const double t21 = std::sin(q[1]);
   const double t18 = std::cos(q[2]);
   const double t143 = t14 * t88;
+  // body 3: composite inertia of 'joint_4' added to its parent
   const double t141 = t13 * t94;
   const double t144 = t143 - t141;
   const double t199 = t18 * t144;
+  // body 4: joint transform X_PC of 'joint_3' (revolute)
   const double t17 = std::sin(q[2]);
   const double t89 = t10 * 0.03678;
   const double t90 = t9 * t42;
   const double t91 = t89 + t90;
   const double t93 = t91 + (-0.081);
   const double t149 = t93 + 0.09;
+  // body 4: composite inertia of 'joint_3' added to its parent
   const double t197 = t17 * t149;
   const double t200 = t199 - t197;
   const double t257 = t21 * t200;
@@ -1687,10 +1684,13 @@ void mass_matrix_part(const double* q, double* M) {
   const double t172 = t171 + 0.243675;
   const double t50 = t5 * 0.005980648000000002;
   const double t66 = t6 * t50;
+  // body 0: joint transform X_PC of 'joint_7' (revolute)
   const double t1 = std::sin(q[6]);
   const double t29 = t1 * 0.00197225;
   const double t31 = t1 * t29;
   const double t2 = std::cos(q[6]);
+  // body 6: joint transform X_PC of 'joint_1' (revolute)
+  // body 0: composite inertia of 'joint_7' added to its parent
   const double t28 = t2 * 0.00197225;
   const double t33 = t2 * t28;
   const double t34 = t31 + t33;
@@ -1869,11 +1869,6 @@ void mass_matrix_part(const double* q, double* M) {
   const double t276 = t21 * t237;
   const double t278 = t275 - t276;
   M[1] = t278;
-  // body 0: columns of M of 'joint_7' (eq. 18)
-  // body 1: columns of M of 'joint_6' (eq. 18)
-  // body 2: columns of M of 'joint_5' (eq. 18)
-  // body 3: columns of M of 'joint_4' (eq. 18)
-  // body 4: columns of M of 'joint_3' (eq. 18)
   const double t536 = t22 * t196;
   const double t537 = t536 - t263;
   M[2] = t537;
@@ -1882,6 +1877,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t514 = t22 * t485;
   const double t482 = t155 - t157;
   const double t494 = t18 * t482;
+  // body 3: columns of M of 'joint_4' (eq. 18)
   const double t478 = -t145;
   const double t479 = t478 - t146;
   const double t480 = t479 * 0.19;
@@ -1908,6 +1904,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t422 = t413 * 0.19;
   const double t432 = t428 - t422;
   const double t446 = t18 * t432;
+  // body 2: columns of M of 'joint_5' (eq. 18)
   const double t410 = t10 * (-0.03678);
   const double t411 = t410 - t90;
   const double t416 = t411 * 0.21;
@@ -1926,6 +1923,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t469 = t466 - t467;
   M[4] = t469;
   const double t366 = t14 * t56;
+  // body 1: columns of M of 'joint_6' (eq. 18)
   const double t337 = t41 + t58;
   const double t343 = t9 * t337;
   const double t345 = t101 - t343;
@@ -1963,6 +1961,7 @@ void mass_matrix_part(const double* q, double* M) {
   M[5] = t406;
   const double t311 = t6 * 0.0012799999999999999;
   const double t319 = t14 * t311;
+  // body 0: columns of M of 'joint_7' (eq. 18)
   const double t310 = t5 * 0.0012799999999999999;
   const double t312 = t10 * t310;
   const double t320 = t13 * t312;
@@ -1989,6 +1988,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t243 = t228 + t242;
   const double t244 = t243 + 0.084;
   M[8] = t244;
+  // body 4: columns of M of 'joint_3' (eq. 18)
   const double t523 = -t201;
   const double t524 = t523 - t202;
   const double t526 = t524 * 0.21;
@@ -2061,6 +2061,8 @@ void mass_matrix_part(const double* q, double* M) {
   M[46] = t311;
   M[47] = 0.0;
   M[48] = 0.0012799999999999999;
+  // body 5: columns of M of 'joint_2' (eq. 18)
+  // body 6: columns of M of 'joint_1' (eq. 18)
 }
 
 void mass_matrix_terms(const double* q, double* M) {
@@ -2071,11 +2073,7 @@ void mass_matrix_terms(const double* q, double* M) {
 void bias_forces_part(const double* q, const double* v, double* h) {
   // body 0: joint transform X_PC of 'joint_7' (revolute)
   const double t1 = std::sin(q[6]);
-  // body 1: joint transform X_PC of 'joint_6' (revolute)
-  // body 2: joint transform X_PC of 'joint_5' (revolute)
   const double t10 = std::cos(q[4]);
-  // body 3: joint transform X_PC of 'joint_4' (revolute)
-  // body 4: joint transform X_PC of 'joint_3' (revolute)
   const double t18 = std::cos(q[2]);
   // body 5: joint transform X_PC of 'joint_2' (revolute)
   const double t21 = std::sin(q[1]);
@@ -2083,19 +2081,20 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   // body 6: velocity and velocity-product acceleration of 'joint_1'
   // body 5: velocity and velocity-product acceleration of 'joint_2'
   const double t30 = t21 * v[0];
-  // body 4: velocity and velocity-product acceleration of 'joint_3'
   const double t40 = t30 * 0.21;
   const double t45 = t18 * t40;
+  // body 4: joint transform X_PC of 'joint_3' (revolute)
   const double t17 = std::sin(q[2]);
+  // body 4: velocity and velocity-product acceleration of 'joint_3'
   const double t38 = v[1] * 0.21;
   const double t46 = t17 * t38;
   const double t48 = t45 - t46;
   const double t49 = t17 * v[1];
   const double t50 = t18 * t30;
   const double t52 = t49 - t50;
-  // body 3: velocity and velocity-product acceleration of 'joint_4'
   const double t80 = t52 * 0.19;
   const double t82 = t48 - t80;
+  // body 3: joint transform X_PC of 'joint_4' (revolute)
   const double t13 = std::sin(q[3]);
   const double t22 = std::cos(q[1]);
   const double t32 = t22 * v[0];
@@ -2104,10 +2103,10 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t14 = std::cos(q[3]);
   const double t87 = t14 * t52;
   const double t88 = t86 + t87;
-  // body 2: velocity and velocity-product acceleration of 'joint_5'
   const double t126 = t88 * 0.21;
   const double t128 = t82 - t126;
   const double t132 = t10 * t128;
+  // body 2: joint transform X_PC of 'joint_5' (revolute)
   const double t9 = std::sin(q[4]);
   const double t42 = t17 * t40;
   const double t43 = t18 * t38;
@@ -2115,10 +2114,12 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t53 = t18 * v[1];
   const double t54 = t17 * t30;
   const double t56 = t53 + t54;
+  // body 3: velocity and velocity-product acceleration of 'joint_4'
   const double t78 = t56 * 0.19;
   const double t81 = t44 + t78;
   const double t83 = t14 * t81;
   const double t93 = t56 - v[3];
+  // body 2: velocity and velocity-product acceleration of 'joint_5'
   const double t124 = t93 * 0.21;
   const double t127 = t83 + t124;
   const double t133 = t9 * t127;
@@ -2126,11 +2127,11 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t136 = t9 * t93;
   const double t137 = t10 * t88;
   const double t138 = t136 + t137;
-  // body 1: velocity and velocity-product acceleration of 'joint_6'
   const double t176 = t138 * 0.19;
   const double t178 = t135 - t176;
   const double t6 = std::cos(q[5]);
   const double t189 = t6 * t138;
+  // body 1: joint transform X_PC of 'joint_6' (revolute)
   const double t5 = std::sin(q[5]);
   const double t89 = t14 * t57;
   const double t90 = t13 * t52;
@@ -2138,7 +2139,6 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t143 = t92 + v[4];
   const double t187 = t5 * t143;
   const double t190 = t189 - t187;
-  // body 0: velocity and velocity-product acceleration of 'joint_7'
   const double t227 = t190 * 0.081;
   const double t229 = t178 - t227;
   const double t230 = t1 * t229;
@@ -2151,11 +2151,13 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t139 = t10 * t93;
   const double t140 = t9 * t88;
   const double t142 = t139 - t140;
+  // body 1: velocity and velocity-product acceleration of 'joint_6'
   const double t174 = t142 * 0.19;
   const double t177 = t131 + t174;
   const double t181 = t6 * t177;
   const double t182 = t179 + t181;
   const double t194 = t142 + v[5];
+  // body 0: velocity and velocity-product acceleration of 'joint_7'
   const double t225 = t194 * 0.081;
   const double t228 = t182 + t225;
   const double t231 = t2 * t228;
@@ -2163,14 +2165,6 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t233 = t2 * t229;
   const double t234 = t1 * t228;
   const double t236 = t233 - t234;
-  // body 6: acceleration of 'joint_1' with gravity
-  // body 5: acceleration of 'joint_2' with gravity
-  // body 4: acceleration of 'joint_3' with gravity
-  // body 3: acceleration of 'joint_4' with gravity
-  // body 2: acceleration of 'joint_5' with gravity
-  // body 1: acceleration of 'joint_6' with gravity
-  // body 0: acceleration of 'joint_7' with gravity
-  // body 0: Newton-Euler force of 'joint_7'
   const double t333 = t236 * 0.55;
   const double t237 = t1 * t194;
   const double t238 = t2 * t190;
@@ -2181,6 +2175,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t240 = t2 * t194;
   const double t241 = t1 * t190;
   const double t243 = t240 - t241;
+  // body 0: Newton-Euler force of 'joint_7'
   const double t329 = t243 * 0.01925;
   const double t332 = t232 * 0.55;
   const double t335 = t329 + t332;
@@ -2227,11 +2222,6 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t221 = t200 + t219;
   const double t388 = t221 * 0.0012799999999999999;
   const double t393 = t374 + t388;
-  // body 1: Newton-Euler force of 'joint_6'
-  // body 2: Newton-Euler force of 'joint_5'
-  // body 3: Newton-Euler force of 'joint_4'
-  // body 4: Newton-Euler force of 'joint_3'
-  // body 5: Newton-Euler force of 'joint_2'
   // body 6: Newton-Euler force of 'joint_1'
   // body 0: bias forces of 'joint_7'
   const double t853 = v[6] * 0.5;
@@ -2245,6 +2235,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t192 = t5 * t138;
   const double t193 = t191 + t192;
   const double t398 = t193 * 0.00108;
+  // body 1: Newton-Euler force of 'joint_6'
   const double t397 = t194 * 0.00072;
   const double t399 = t398 - t397;
   const double t406 = t403 - t399;
@@ -2277,6 +2268,8 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t144 = v[4] * t135;
   const double t64 = t33 * 0.21;
   const double t67 = t18 * t64;
+  // body 6: acceleration of 'joint_1' with gravity
+  // body 5: acceleration of 'joint_2' with gravity
   const double t274 = t21 * 9.81;
   const double t280 = t17 * t274;
   const double t282 = t67 + t280;
@@ -2293,18 +2286,22 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t102 = t73 * 0.19;
   const double t58 = v[2] * t48;
   const double t66 = t17 * t64;
+  // body 4: acceleration of 'joint_3' with gravity
   const double t277 = t18 * t274;
   const double t279 = t66 - t277;
   const double t283 = t58 + t279;
+  // body 3: acceleration of 'joint_4' with gravity
   const double t285 = t102 + t283;
   const double t288 = t14 * t285;
   const double t289 = t287 + t288;
   const double t94 = v[3] * t84;
   const double t294 = t289 - t94;
+  // body 2: acceleration of 'joint_5' with gravity
   const double t296 = t150 + t294;
   const double t299 = t10 * t296;
   const double t300 = t298 + t299;
   const double t305 = t144 + t300;
+  // body 1: acceleration of 'joint_6' with gravity
   const double t307 = t201 + t305;
   const double t311 = t6 * t307;
   const double t290 = t14 * t276;
@@ -2350,6 +2347,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t319 = t308 - t253;
   const double t320 = t1 * t319;
   const double t251 = t170 * 0.081;
+  // body 0: acceleration of 'joint_7' with gravity
   const double t318 = t251 + t316;
   const double t321 = t2 * t318;
   const double t322 = t320 + t321;
@@ -2416,6 +2414,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t537 = t131 * t500;
   const double t495 = t131 * 1.7;
   const double t490 = t143 * 0.0357;
+  // body 2: Newton-Euler force of 'joint_5'
   const double t489 = t142 * 0.12919999999999998;
   const double t491 = t490 - t489;
   const double t499 = t495 - t491;
@@ -2503,6 +2502,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t935 = v[3] * 0.5;
   const double t591 = t83 * 2.7;
   const double t586 = t92 * (-0.081);
+  // body 3: Newton-Euler force of 'joint_4'
   const double t585 = t93 * 0.21600000000000003;
   const double t587 = t586 - t585;
   const double t595 = t591 - t587;
@@ -2647,6 +2647,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t719 = t44 * t690;
   const double t687 = t44 * 3.0;
   const double t682 = t57 * 0.09;
+  // body 4: Newton-Euler force of 'joint_3'
   const double t681 = t56 * 0.39;
   const double t683 = t682 - t681;
   const double t689 = t687 - t683;
@@ -2726,6 +2727,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t784 = v[1] * (-0.012);
   const double t785 = t783 + t784;
   const double t803 = t30 * t785;
+  // body 5: Newton-Euler force of 'joint_2'
   const double t778 = t30 * 0.08860000000000001;
   const double t805 = t32 * t778;
   const double t807 = t803 - t805;

@@ -430,18 +430,10 @@ void loop_terms_part(const double* q, const double* v, const double* tau, double
   // Joint transforms X_PC and motion subspaces S (constants folded, sin/cos once per joint).
   // body 0: joint transform X_PC of 'joint_C' (revolute)
   const double t1 = std::sin(q[2]);
-  // body 1: joint transform X_PC of 'joint_B' (revolute)
-  // body 2: joint transform X_PC of 'joint_A' (revolute)
-  // body 2: velocity and velocity-product acceleration of 'joint_A'
-  // body 1: velocity and velocity-product acceleration of 'joint_B'
-  // body 0: velocity and velocity-product acceleration of 'joint_C'
-  // M, eq. (18): composite inertias leaves first (eq. 14), packed as Step 1 factors it.
-  // body 0: composite inertia of 'joint_C' added to its parent
-  // body 1: composite inertia of 'joint_B' added to its parent
-  // body 0: columns of M of 'joint_C' (eq. 18)
   const double t163 = t1 * 0.81;
   const double t165 = t163 * 0.9;
   const double t2 = std::cos(q[2]);
+  // body 0: columns of M of 'joint_C' (eq. 18)
   const double t162 = t2 * 0.81;
   const double t164 = t162 * 0.5;
   const double t166 = t165 - t164;
@@ -449,6 +441,7 @@ void loop_terms_part(const double* q, const double* v, const double* tau, double
   L[1] = t167;
   const double t6 = std::cos(q[1]);
   const double t172 = t6 * t163;
+  // body 1: joint transform X_PC of 'joint_B' (revolute)
   const double t5 = std::sin(q[1]);
   const double t173 = t5 * t162;
   const double t174 = t172 + t173;
@@ -462,6 +455,8 @@ void loop_terms_part(const double* q, const double* v, const double* tau, double
   L[2] = t178;
   const double t60 = t2 * (-0.81);
   const double t70 = t60 * 0.5;
+  // M, eq. (18): composite inertias leaves first (eq. 14), packed as Step 1 factors it.
+  // body 0: composite inertia of 'joint_C' added to its parent
   const double t58 = t1 * (-0.81);
   const double t71 = t58 * 0.9;
   const double t73 = t70 - t71;
@@ -475,6 +470,7 @@ void loop_terms_part(const double* q, const double* v, const double* tau, double
   const double t108 = t6 * t63;
   const double t62 = t60 + 0.9;
   const double t64 = t62 + 0.5;
+  // body 1: composite inertia of 'joint_B' added to its parent
   const double t106 = t5 * t64;
   const double t109 = t108 - t106;
   const double t130 = t109 * 0.3;
@@ -497,6 +493,8 @@ void loop_terms_part(const double* q, const double* v, const double* tau, double
   L[5] = t161;
   const double t15 = v[0] * 0.3;
   const double t22 = t6 * t15;
+  // body 2: velocity and velocity-product acceleration of 'joint_A'
+  // body 1: velocity and velocity-product acceleration of 'joint_B'
   const double t14 = v[0] * 0.4;
   const double t23 = t5 * t14;
   const double t25 = t22 + t23;
@@ -507,6 +505,7 @@ void loop_terms_part(const double* q, const double* v, const double* tau, double
   const double t18 = t5 * t15;
   const double t19 = t6 * t14;
   const double t21 = t18 - t19;
+  // body 0: velocity and velocity-product acceleration of 'joint_C'
   const double t31 = t26 * 0.5;
   const double t34 = t21 - t31;
   const double t37 = t2 * t34;
@@ -514,16 +513,16 @@ void loop_terms_part(const double* q, const double* v, const double* tau, double
   const double t39 = t2 * t35;
   const double t40 = t1 * t34;
   const double t42 = t39 - t40;
+  const double t191 = t42 * 1.8;
+  const double t201 = t38 * t191;
+  const double t190 = t38 * 1.8;
+  const double t43 = t26 + v[2];
   // body 2: columns of M of 'joint_A' (eq. 18)
   // Q = tau - h (Coriolis and centrifugal terms, gravity, joint damping), Lemma 2 order.
   // body 2: acceleration of 'joint_A' with gravity
   // body 1: acceleration of 'joint_B' with gravity
   // body 0: acceleration of 'joint_C' with gravity
   // body 0: Newton-Euler force of 'joint_C'
-  const double t191 = t42 * 1.8;
-  const double t201 = t38 * t191;
-  const double t190 = t38 * 1.8;
-  const double t43 = t26 + v[2];
   const double t189 = t43 * (-0.81);
   const double t192 = t190 - t189;
   const double t200 = t42 * t192;
@@ -537,18 +536,16 @@ void loop_terms_part(const double* q, const double* v, const double* tau, double
   const double t56 = t44 + t50;
   const double t205 = t56 * (-0.81);
   const double t207 = t202 - t205;
-  // body 1: Newton-Euler force of 'joint_B'
   // body 2: Newton-Euler force of 'joint_A'
   // body 0: bias forces of 'joint_C'
   const double t244 = v[2] * 0.01;
   const double t245 = t207 + t244;
-  // body 1: bias forces of 'joint_B'
-  // body 2: bias forces of 'joint_A'
   const double t295 = tau[2] - t245;
   z[0] = t295;
   const double t211 = t25 * 2.0;
   const double t213 = t32 + t211;
   const double t223 = t21 * t213;
+  // body 1: Newton-Euler force of 'joint_B'
   const double t210 = t21 * 2.0;
   const double t212 = t210 - t31;
   const double t222 = t25 * t212;
@@ -581,6 +578,7 @@ void loop_terms_part(const double* q, const double* v, const double* tau, double
   const double t255 = t254 - t253;
   const double t260 = t207 + t255;
   const double t263 = t232 + t260;
+  // body 1: bias forces of 'joint_B'
   const double t266 = v[1] * 0.01;
   const double t267 = t263 + t266;
   const double t297 = tau[1] - t267;
@@ -603,12 +601,11 @@ void loop_terms_part(const double* q, const double* v, const double* tau, double
   const double t275 = t271 * 0.4;
   const double t277 = t276 - t275;
   const double t287 = t263 + t277;
+  // body 2: bias forces of 'joint_A'
   const double t292 = v[0] * 0.01;
   const double t293 = t287 + t292;
   const double t299 = tau[0] - t293;
   z[2] = t299;
-  // Phiq (packed, Lemma 3: each cut's rows touch only the dofs on its paths) and gamma.
-  // cut 'joint_D' (revolute): bodies 0 and -1, in the coordinates of its frame on k
   const double t303 = t2 * 0.5;
   const double t304 = t1 * 0.9;
   const double t306 = t303 - t304;
@@ -626,6 +623,7 @@ void loop_terms_part(const double* q, const double* v, const double* tau, double
   const double t326 = t308 - t324;
   const double t10 = std::cos(q[0]);
   const double t335 = t10 * t318;
+  // body 2: joint transform X_PC of 'joint_A' (revolute)
   const double t9 = std::sin(q[0]);
   const double t332 = t9 * t312;
   const double t336 = t335 - t332;
@@ -640,6 +638,8 @@ void loop_terms_part(const double* q, const double* v, const double* tau, double
   const double t383 = t326 - t342;
   const double t384 = -t383;
   T[2] = t384;
+  // Phiq (packed, Lemma 3: each cut's rows touch only the dofs on its paths) and gamma.
+  // cut 'joint_D' (revolute): bodies 0 and -1, in the coordinates of its frame on k
   const double t300 = t1 * 0.5;
   const double t301 = t2 * 0.9;
   const double t302 = t300 + t301;
@@ -694,8 +694,6 @@ void loop_terms(const double* q, const double* v, const double* tau, double* L, 
 void constraints_part(const double* q, double* phi) {
   // body 0: joint transform X_PC of 'joint_C' (revolute)
   const double t1 = std::sin(q[2]);
-  // body 1: joint transform X_PC of 'joint_B' (revolute)
-  // body 2: joint transform X_PC of 'joint_A' (revolute)
   // cut 'joint_D' (revolute): bodies 0 and -1, in the coordinates of its frame on k
   const double t12 = t1 * 0.5;
   const double t2 = std::cos(q[2]);
@@ -704,6 +702,7 @@ void constraints_part(const double* q, double* phi) {
   const double t19 = -t14;
   const double t6 = std::cos(q[1]);
   const double t25 = t1 * t6;
+  // body 1: joint transform X_PC of 'joint_B' (revolute)
   const double t5 = std::sin(q[1]);
   const double t26 = t2 * t5;
   const double t27 = t25 + t26;
@@ -716,6 +715,7 @@ void constraints_part(const double* q, double* phi) {
   const double t37 = t19 - t33;
   const double t10 = std::cos(q[0]);
   const double t41 = t10 * t24;
+  // body 2: joint transform X_PC of 'joint_A' (revolute)
   const double t9 = std::sin(q[0]);
   const double t39 = t9 * t27;
   const double t42 = t41 - t39;
@@ -746,18 +746,16 @@ void constraints_terms(const double* q, double* phi) {
 
 // constraint_jacobian(): specialized kinematics and constraint terms
 void constraint_jacobian_part(const double* q, double* Phiq) {
-  // body 0: joint transform X_PC of 'joint_C' (revolute)
   const double t2 = std::cos(q[2]);
-  // body 1: joint transform X_PC of 'joint_B' (revolute)
-  // body 2: joint transform X_PC of 'joint_A' (revolute)
-  // cut 'joint_D' (revolute): bodies 0 and -1, in the coordinates of its frame on k
   const double t15 = t2 * 0.5;
+  // body 0: joint transform X_PC of 'joint_C' (revolute)
   const double t1 = std::sin(q[2]);
   const double t16 = t1 * 0.9;
   const double t18 = t15 - t16;
   const double t20 = 0.9 - t18;
   const double t6 = std::cos(q[1]);
   const double t23 = t2 * t6;
+  // body 1: joint transform X_PC of 'joint_B' (revolute)
   const double t5 = std::sin(q[1]);
   const double t21 = t1 * t5;
   const double t24 = t23 - t21;
@@ -771,6 +769,7 @@ void constraint_jacobian_part(const double* q, double* Phiq) {
   const double t38 = t20 - t36;
   const double t10 = std::cos(q[0]);
   const double t47 = t10 * t30;
+  // body 2: joint transform X_PC of 'joint_A' (revolute)
   const double t9 = std::sin(q[0]);
   const double t44 = t9 * t24;
   const double t48 = t47 - t44;
@@ -779,6 +778,7 @@ void constraint_jacobian_part(const double* q, double* Phiq) {
   const double t62 = t38 - t54;
   const double t63 = -t62;
   Phiq[0] = t63;
+  // cut 'joint_D' (revolute): bodies 0 and -1, in the coordinates of its frame on k
   const double t12 = t1 * 0.5;
   const double t13 = t2 * 0.9;
   const double t14 = t12 + t13;
@@ -815,11 +815,6 @@ void constraint_jacobian_terms(const double* q, double* Phiq) {
 void constraint_gamma_part(const double* q, const double* v, double* gamma) {
   // body 0: joint transform X_PC of 'joint_C' (revolute)
   const double t1 = std::sin(q[2]);
-  // body 1: joint transform X_PC of 'joint_B' (revolute)
-  // body 2: joint transform X_PC of 'joint_A' (revolute)
-  // body 2: velocity and velocity-product acceleration of 'joint_A'
-  // body 1: velocity and velocity-product acceleration of 'joint_B'
-  // body 0: velocity and velocity-product acceleration of 'joint_C'
   // cut 'joint_D' (revolute): bodies 0 and -1, in the coordinates of its frame on k
   const double t58 = t1 * 0.5;
   const double t2 = std::cos(q[2]);
@@ -828,6 +823,7 @@ void constraint_gamma_part(const double* q, const double* v, double* gamma) {
   const double t65 = -t60;
   const double t6 = std::cos(q[1]);
   const double t71 = t1 * t6;
+  // body 1: joint transform X_PC of 'joint_B' (revolute)
   const double t5 = std::sin(q[1]);
   const double t72 = t2 * t5;
   const double t73 = t71 + t72;
@@ -840,6 +836,7 @@ void constraint_gamma_part(const double* q, const double* v, double* gamma) {
   const double t83 = t65 - t79;
   const double t10 = std::cos(q[0]);
   const double t87 = t10 * t70;
+  // body 2: joint transform X_PC of 'joint_A' (revolute)
   const double t9 = std::sin(q[0]);
   const double t85 = t9 * t73;
   const double t88 = t87 - t85;
@@ -852,6 +849,8 @@ void constraint_gamma_part(const double* q, const double* v, double* gamma) {
   const double t121 = -t120;
   const double t15 = v[0] * 0.3;
   const double t22 = t6 * t15;
+  // body 2: velocity and velocity-product acceleration of 'joint_A'
+  // body 1: velocity and velocity-product acceleration of 'joint_B'
   const double t14 = v[0] * 0.4;
   const double t23 = t5 * t14;
   const double t25 = t22 + t23;
@@ -861,6 +860,7 @@ void constraint_gamma_part(const double* q, const double* v, double* gamma) {
   const double t18 = t5 * t15;
   const double t19 = t6 * t14;
   const double t21 = t18 - t19;
+  // body 0: velocity and velocity-product acceleration of 'joint_C'
   const double t31 = t26 * 0.5;
   const double t34 = t21 - t31;
   const double t40 = t1 * t34;
@@ -925,14 +925,13 @@ void constraint_gamma_terms(const double* q, const double* v, double* gamma) {
 // ---- mass_matrix() and bias_forces(): specialized programs ----
 // mass_matrix(): specialized kinematics and M (eq. 14, 18)
 void mass_matrix_part(const double* q, double* M) {
-  // body 0: joint transform X_PC of 'joint_C' (revolute)
   const double t2 = std::cos(q[2]);
-  // body 1: joint transform X_PC of 'joint_B' (revolute)
-  // body 2: joint transform X_PC of 'joint_A' (revolute)
-  // body 0: composite inertia of 'joint_C' added to its parent
   const double t14 = t2 * (-0.81);
   const double t24 = t14 * 0.5;
+  // body 0: joint transform X_PC of 'joint_C' (revolute)
   const double t1 = std::sin(q[2]);
+  // body 2: joint transform X_PC of 'joint_A' (revolute)
+  // body 0: composite inertia of 'joint_C' added to its parent
   const double t12 = t1 * (-0.81);
   const double t25 = t12 * 0.9;
   const double t27 = t24 - t25;
@@ -943,8 +942,8 @@ void mass_matrix_part(const double* q, double* M) {
   const double t6 = std::cos(q[1]);
   const double t16 = t14 + 0.9;
   const double t18 = t16 + 0.5;
-  // body 1: composite inertia of 'joint_B' added to its parent
   const double t64 = t6 * t18;
+  // body 1: joint transform X_PC of 'joint_B' (revolute)
   const double t5 = std::sin(q[1]);
   const double t15 = 1.62 - t12;
   const double t17 = t15 + 0.9;
@@ -952,6 +951,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t66 = t64 + t65;
   const double t83 = t66 * 0.4;
   const double t62 = t6 * t17;
+  // body 1: composite inertia of 'joint_B' added to its parent
   const double t60 = t5 * t18;
   const double t63 = t62 - t60;
   const double t84 = t63 * 0.3;
@@ -961,7 +961,6 @@ void mass_matrix_part(const double* q, double* M) {
   const double t114 = t59 + t87;
   const double t115 = t114 + 0.083358333333;
   M[0] = t115;
-  // body 0: columns of M of 'joint_C' (eq. 18)
   // body 1: columns of M of 'joint_B' (eq. 18)
   const double t136 = -t64;
   const double t137 = t136 - t65;
@@ -971,6 +970,7 @@ void mass_matrix_part(const double* q, double* M) {
   M[1] = t140;
   const double t117 = t1 * 0.81;
   const double t119 = t117 * 0.9;
+  // body 0: columns of M of 'joint_C' (eq. 18)
   const double t116 = t2 * 0.81;
   const double t118 = t116 * 0.5;
   const double t120 = t119 - t118;
@@ -992,6 +992,7 @@ void mass_matrix_part(const double* q, double* M) {
   M[6] = t132;
   M[7] = t121;
   M[8] = 0.48604500000000006;
+  // body 2: columns of M of 'joint_A' (eq. 18)
 }
 
 void mass_matrix_terms(const double* q, double* M) {
@@ -1002,19 +1003,18 @@ void mass_matrix_terms(const double* q, double* M) {
 void bias_forces_part(const double* q, const double* v, double* h) {
   // body 0: joint transform X_PC of 'joint_C' (revolute)
   const double t1 = std::sin(q[2]);
-  // body 1: joint transform X_PC of 'joint_B' (revolute)
   const double t6 = std::cos(q[1]);
+  const double t15 = v[0] * 0.3;
+  const double t22 = t6 * t15;
+  // body 1: joint transform X_PC of 'joint_B' (revolute)
+  const double t5 = std::sin(q[1]);
   // body 2: joint transform X_PC of 'joint_A' (revolute)
   // body 2: velocity and velocity-product acceleration of 'joint_A'
   // body 1: velocity and velocity-product acceleration of 'joint_B'
-  const double t15 = v[0] * 0.3;
-  const double t22 = t6 * t15;
-  const double t5 = std::sin(q[1]);
   const double t14 = v[0] * 0.4;
   const double t23 = t5 * t14;
   const double t25 = t22 + t23;
   const double t26 = v[0] + v[1];
-  // body 0: velocity and velocity-product acceleration of 'joint_C'
   const double t32 = t26 * 0.9;
   const double t35 = t25 + t32;
   const double t36 = t1 * t35;
@@ -1022,6 +1022,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t18 = t5 * t15;
   const double t19 = t6 * t14;
   const double t21 = t18 - t19;
+  // body 0: velocity and velocity-product acceleration of 'joint_C'
   const double t31 = t26 * 0.5;
   const double t34 = t21 - t31;
   const double t37 = t2 * t34;
@@ -1029,14 +1030,14 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t39 = t2 * t35;
   const double t40 = t1 * t34;
   const double t42 = t39 - t40;
-  // body 2: acceleration of 'joint_A' with gravity
-  // body 1: acceleration of 'joint_B' with gravity
-  // body 0: acceleration of 'joint_C' with gravity
-  // body 0: Newton-Euler force of 'joint_C'
   const double t60 = t42 * 1.8;
   const double t70 = t38 * t60;
   const double t59 = t38 * 1.8;
   const double t43 = t26 + v[2];
+  // body 2: acceleration of 'joint_A' with gravity
+  // body 1: acceleration of 'joint_B' with gravity
+  // body 0: acceleration of 'joint_C' with gravity
+  // body 0: Newton-Euler force of 'joint_C'
   const double t58 = t43 * (-0.81);
   const double t61 = t59 - t58;
   const double t69 = t42 * t61;
@@ -1050,7 +1051,6 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t56 = t44 + t50;
   const double t74 = t56 * (-0.81);
   const double t76 = t71 - t74;
-  // body 1: Newton-Euler force of 'joint_B'
   // body 2: Newton-Euler force of 'joint_A'
   // body 0: bias forces of 'joint_C'
   const double t113 = v[2] * 0.01;
@@ -1059,6 +1059,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t80 = t25 * 2.0;
   const double t82 = t32 + t80;
   const double t92 = t21 * t82;
+  // body 1: Newton-Euler force of 'joint_B'
   const double t79 = t21 * 2.0;
   const double t81 = t79 - t31;
   const double t91 = t25 * t81;

@@ -1273,42 +1273,6 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   (void)D;
   // Joint transforms X_PC and motion subspaces S (constants folded, sin/cos once per joint).
   // body 0: joint transform X_PC of 'rf_upper_ball' (ball)
-  // body 1: joint transform X_PC of 'rf_upper_pivot' (revolute)
-  // body 2: joint transform X_PC of 'lf_upper_ball' (ball)
-  // body 3: joint transform X_PC of 'lf_upper_pivot' (revolute)
-  // body 4: joint transform X_PC of 'rr_upper_ball' (ball)
-  // body 5: joint transform X_PC of 'rr_upper_pivot' (revolute)
-  // body 6: joint transform X_PC of 'lr_upper_ball' (ball)
-  // body 7: joint transform X_PC of 'lr_upper_pivot' (revolute)
-  // body 8: joint transform X_PC of 'rack_slide' (prismatic)
-  // body 9: joint transform X_PC of 'rf_lower_pivot' (revolute)
-  // body 10: joint transform X_PC of 'lf_lower_pivot' (revolute)
-  // body 11: joint transform X_PC of 'rr_lower_pivot' (revolute)
-  // body 12: joint transform X_PC of 'lr_lower_pivot' (revolute)
-  // body 13: joint transform X_PC of 'chassis_floating' (floating)
-  // Body velocities and velocity-product accelerations, root first.
-  // body 13: velocity and velocity-product acceleration of 'chassis_floating'
-  // body 12: velocity and velocity-product acceleration of 'lr_lower_pivot'
-  // body 11: velocity and velocity-product acceleration of 'rr_lower_pivot'
-  // body 10: velocity and velocity-product acceleration of 'lf_lower_pivot'
-  // body 9: velocity and velocity-product acceleration of 'rf_lower_pivot'
-  // body 8: velocity and velocity-product acceleration of 'rack_slide'
-  // body 7: velocity and velocity-product acceleration of 'lr_upper_pivot'
-  // body 6: velocity and velocity-product acceleration of 'lr_upper_ball'
-  // body 5: velocity and velocity-product acceleration of 'rr_upper_pivot'
-  // body 4: velocity and velocity-product acceleration of 'rr_upper_ball'
-  // body 3: velocity and velocity-product acceleration of 'lf_upper_pivot'
-  // body 2: velocity and velocity-product acceleration of 'lf_upper_ball'
-  // body 1: velocity and velocity-product acceleration of 'rf_upper_pivot'
-  // body 0: velocity and velocity-product acceleration of 'rf_upper_ball'
-  // body 0: articulated inertia of 'rf_upper_ball' (backward sweep)
-  // body 1: articulated inertia of 'rf_upper_pivot' (backward sweep)
-  // body 2: articulated inertia of 'lf_upper_ball' (backward sweep)
-  // body 3: articulated inertia of 'lf_upper_pivot' (backward sweep)
-  // body 4: articulated inertia of 'rr_upper_ball' (backward sweep)
-  // body 5: articulated inertia of 'rr_upper_pivot' (backward sweep)
-  // body 6: articulated inertia of 'lr_upper_ball' (backward sweep)
-  // body 7: articulated inertia of 'lr_upper_pivot' (backward sweep)
   const double t4 = q[11] * q[11];
   const double t5 = q[10] * q[10];
   const double t6 = q[9] * q[9];
@@ -1350,10 +1314,12 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t34 = t18 + t21;
   const double t35 = 1.0 - t34;
   g_aba_spill[258] = t35;
+  // body 1: joint transform X_PC of 'rf_upper_pivot' (revolute)
   const double t37 = std::sin(q[7]);
   g_aba_spill[238] = t37;
   const double t38 = std::cos(q[7]);
   g_aba_spill[239] = t38;
+  // body 2: joint transform X_PC of 'lf_upper_ball' (ball)
   const double t44 = q[16] * q[16];
   const double t45 = q[15] * q[15];
   const double t46 = q[14] * q[14];
@@ -1395,10 +1361,12 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t74 = t58 + t61;
   const double t75 = 1.0 - t74;
   g_aba_spill[226] = t75;
+  // body 3: joint transform X_PC of 'lf_upper_pivot' (revolute)
   const double t77 = std::sin(q[12]);
   g_aba_spill[206] = t77;
   const double t78 = std::cos(q[12]);
   g_aba_spill[207] = t78;
+  // body 4: joint transform X_PC of 'rr_upper_ball' (ball)
   const double t84 = q[21] * q[21];
   const double t85 = q[20] * q[20];
   const double t86 = q[19] * q[19];
@@ -1440,10 +1408,12 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t114 = t98 + t101;
   const double t115 = 1.0 - t114;
   g_aba_spill[194] = t115;
+  // body 5: joint transform X_PC of 'rr_upper_pivot' (revolute)
   const double t117 = std::sin(q[17]);
   g_aba_spill[174] = t117;
   const double t118 = std::cos(q[17]);
   g_aba_spill[175] = t118;
+  // body 6: joint transform X_PC of 'lr_upper_ball' (ball)
   const double t124 = q[26] * q[26];
   const double t125 = q[25] * q[25];
   const double t126 = q[24] * q[24];
@@ -1485,26 +1455,33 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t154 = t138 + t141;
   const double t155 = 1.0 - t154;
   g_aba_spill[162] = t155;
+  // body 7: joint transform X_PC of 'lr_upper_pivot' (revolute)
   const double t157 = std::sin(q[22]);
   g_aba_spill[62] = t157;
   const double t158 = std::cos(q[22]);
   g_aba_spill[64] = t158;
+  // body 8: joint transform X_PC of 'rack_slide' (prismatic)
+  // body 9: joint transform X_PC of 'rf_lower_pivot' (revolute)
   const double t162 = std::sin(q[28]);
   g_aba_spill[94] = t162;
   const double t163 = std::cos(q[28]);
   g_aba_spill[95] = t163;
+  // body 10: joint transform X_PC of 'lf_lower_pivot' (revolute)
   const double t166 = std::sin(q[29]);
   g_aba_spill[106] = t166;
   const double t167 = std::cos(q[29]);
   g_aba_spill[107] = t167;
+  // body 11: joint transform X_PC of 'rr_lower_pivot' (revolute)
   const double t170 = std::sin(q[30]);
   g_aba_spill[118] = t170;
   const double t171 = std::cos(q[30]);
   g_aba_spill[119] = t171;
+  // body 12: joint transform X_PC of 'lr_lower_pivot' (revolute)
   const double t174 = std::sin(q[31]);
   g_aba_spill[130] = t174;
   const double t175 = std::cos(q[31]);
   g_aba_spill[131] = t175;
+  // body 13: joint transform X_PC of 'chassis_floating' (floating)
   const double t181 = q[6] * q[6];
   const double t182 = q[5] * q[5];
   const double t183 = q[4] * q[4];
@@ -1546,6 +1523,8 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t211 = t195 + t198;
   const double t212 = 1.0 - t211;
   g_aba_spill[138] = t212;
+  // Body velocities and velocity-product accelerations, root first.
+  // body 13: velocity and velocity-product acceleration of 'chassis_floating'
   const double t218 = t202 * v[0];
   const double t219 = t203 * v[0];
   const double t220 = t204 * v[0];
@@ -1573,6 +1552,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t245 = t232 * v[3];
   const double t246 = t245 - t244;
   g_aba_spill[143] = t246;
+  // body 12: velocity and velocity-product acceleration of 'lr_lower_pivot'
   const double t251 = v[4] * (-0.14);
   const double t252 = v[5] * 0.36;
   const double t253 = t252 - t251;
@@ -1606,6 +1586,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   g_aba_spill[124] = t281;
   const double t282 = v[26] * t272;
   g_aba_spill[123] = t282;
+  // body 11: velocity and velocity-product acceleration of 'rr_lower_pivot'
   const double t297 = v[5] * (-0.36);
   const double t298 = t297 - t251;
   const double t299 = v[3] * (-0.36);
@@ -1633,6 +1614,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   g_aba_spill[112] = t321;
   const double t322 = v[25] * t312;
   g_aba_spill[111] = t322;
+  // body 10: velocity and velocity-product acceleration of 'lf_lower_pivot'
   const double t337 = v[5] * 1.65;
   const double t338 = t255 - t337;
   const double t339 = v[4] * 1.65;
@@ -1660,6 +1642,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   g_aba_spill[100] = t361;
   const double t362 = v[24] * t352;
   g_aba_spill[99] = t362;
+  // body 9: velocity and velocity-product acceleration of 'rf_lower_pivot'
   const double t377 = t339 - t299;
   const double t378 = t234 - t377;
   const double t379 = t162 * t378;
@@ -1683,6 +1666,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   g_aba_spill[88] = t397;
   const double t398 = v[23] * t388;
   g_aba_spill[87] = t398;
+  // body 8: velocity and velocity-product acceleration of 'rack_slide'
   const double t413 = v[4] * (-0.02);
   const double t414 = q[27] * v[5];
   const double t415 = t414 - t413;
@@ -1700,6 +1684,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   g_aba_spill[77] = t426;
   const double t428 = v[3] * v[22];
   g_aba_spill[78] = t428;
+  // body 7: velocity and velocity-product acceleration of 'lr_upper_pivot'
   const double t432 = v[4] * 0.22;
   const double t433 = v[5] * 0.42;
   const double t434 = t433 - t432;
@@ -1731,6 +1716,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   g_aba_spill[144] = t460;
   const double t461 = v[18] * t451;
   g_aba_spill[145] = t461;
+  // body 6: velocity and velocity-product acceleration of 'lr_upper_ball'
   const double t478 = t451 * (-0.02);
   const double t479 = t455 * 0.34;
   const double t480 = t479 - t478;
@@ -1796,6 +1782,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t536 = v[20] * t517;
   const double t537 = t536 - t535;
   g_aba_spill[167] = t537;
+  // body 5: velocity and velocity-product acceleration of 'rr_upper_pivot'
   const double t577 = v[5] * (-0.42);
   const double t578 = t577 - t432;
   const double t579 = v[3] * (-0.42);
@@ -1823,6 +1810,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   g_aba_spill[176] = t601;
   const double t602 = v[14] * t592;
   g_aba_spill[177] = t602;
+  // body 4: velocity and velocity-product acceleration of 'rr_upper_ball'
   const double t619 = t592 * (-0.02);
   const double t620 = t596 * (-0.34);
   const double t621 = t620 - t619;
@@ -1888,6 +1876,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t677 = v[16] * t658;
   const double t678 = t677 - t676;
   g_aba_spill[199] = t678;
+  // body 3: velocity and velocity-product acceleration of 'lf_upper_pivot'
   const double t718 = t435 - t337;
   const double t719 = t339 - t437;
   const double t720 = t232 - t718;
@@ -1913,6 +1902,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   g_aba_spill[208] = t740;
   const double t741 = v[10] * t731;
   g_aba_spill[209] = t741;
+  // body 2: velocity and velocity-product acceleration of 'lf_upper_ball'
   const double t758 = t731 * (-0.02);
   const double t759 = t735 * 0.34;
   const double t760 = t759 - t758;
@@ -1978,6 +1968,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t816 = v[12] * t797;
   const double t817 = t816 - t815;
   g_aba_spill[231] = t817;
+  // body 1: velocity and velocity-product acceleration of 'rf_upper_pivot'
   const double t857 = t339 - t579;
   const double t858 = t234 - t857;
   const double t859 = t37 * t858;
@@ -2001,6 +1992,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   g_aba_spill[240] = t877;
   const double t878 = v[6] * t868;
   g_aba_spill[241] = t878;
+  // body 0: velocity and velocity-product acceleration of 'rf_upper_ball'
   const double t895 = t868 * (-0.02);
   const double t896 = t872 * (-0.34);
   const double t897 = t896 - t895;
@@ -2848,6 +2840,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t1742 = t1726 + t1735;
   const double t1743 = t1729 + t1738;
   const double t1744 = t1732 + t1741;
+  // body 0: articulated inertia of 'rf_upper_ball' (backward sweep)
   const double t1746 = tau[7] - t1046;
   g_aba_spill[267] = t1746;
   const double t1748 = tau[8] - t1047;
@@ -3033,6 +3026,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t1922 = t1077 + t1884;
   const double t1923 = t1080 + t1889;
   const double t1924 = t1083 + t1894;
+  // body 1: articulated inertia of 'rf_upper_pivot' (backward sweep)
   const double t1925 = 1.0 / t1868;
   g_aba_spill[251] = t1925;
   const double t1927 = tau[6] - t1919;
@@ -3377,6 +3371,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t2335 = t1717 + t2055;
   const double t2336 = t1720 + t2309;
   const double t2337 = t1723 + t2312;
+  // body 2: articulated inertia of 'lf_upper_ball' (backward sweep)
   const double t2339 = tau[11] - t1158;
   g_aba_spill[235] = t2339;
   const double t2341 = tau[12] - t1159;
@@ -3562,6 +3557,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t2515 = t1189 + t2477;
   const double t2516 = t1192 + t2482;
   const double t2517 = t1195 + t2487;
+  // body 3: articulated inertia of 'lf_upper_pivot' (backward sweep)
   const double t2518 = 1.0 / t2461;
   g_aba_spill[219] = t2518;
   const double t2520 = tau[10] - t2512;
@@ -3919,6 +3915,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t2943 = t2335 + t2648;
   const double t2944 = t2336 + t2917;
   const double t2945 = t2337 + t2920;
+  // body 4: articulated inertia of 'rr_upper_ball' (backward sweep)
   const double t2947 = tau[15] - t1270;
   g_aba_spill[203] = t2947;
   const double t2949 = tau[16] - t1271;
@@ -4104,6 +4101,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t3123 = t1298 + t3085;
   const double t3124 = t1301 + t3090;
   const double t3125 = t1304 + t3095;
+  // body 5: articulated inertia of 'rr_upper_pivot' (backward sweep)
   const double t3126 = 1.0 / t3069;
   g_aba_spill[187] = t3126;
   const double t3128 = tau[14] - t3120;
@@ -4491,6 +4489,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   g_aba_spill[74] = t3552;
   const double t3553 = t2945 + t3528;
   g_aba_spill[75] = t3553;
+  // body 6: articulated inertia of 'lr_upper_ball' (backward sweep)
   const double t3555 = tau[19] - t1379;
   g_aba_spill[171] = t3555;
   const double t3557 = tau[20] - t1380;
@@ -4676,6 +4675,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t3731 = t1407 + t3693;
   const double t3732 = t1410 + t3698;
   const double t3733 = t1413 + t3703;
+  // body 7: articulated inertia of 'lr_upper_pivot' (backward sweep)
   const double t3734 = 1.0 / t3677;
   g_aba_spill[155] = t3734;
   const double t3736 = tau[18] - t3728;
@@ -5281,13 +5281,6 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t1746 = g_aba_spill[267];
   const double t1748 = g_aba_spill[268];
   const double t1750 = g_aba_spill[269];
-  // body 8: articulated inertia of 'rack_slide' (backward sweep)
-  // body 9: articulated inertia of 'rf_lower_pivot' (backward sweep)
-  // body 10: articulated inertia of 'lf_lower_pivot' (backward sweep)
-  // body 11: articulated inertia of 'rr_lower_pivot' (backward sweep)
-  // body 12: articulated inertia of 'lr_lower_pivot' (backward sweep)
-  // body 13: articulated inertia of 'chassis_floating' (backward sweep)
-  // body 13: acceleration of 'chassis_floating' (forward sweep)
   const double t5529 = t212 * 9.81;
   const double t5532 = t5529 - t246;
   const double t4129 = t3521 + t3994;
@@ -5414,6 +5407,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t5000 = t4996 + t4999;
   const double t5082 = t203 * t5000;
   const double t4123 = t3515 + t3980;
+  // body 13: articulated inertia of 'chassis_floating' (backward sweep)
   const double t4991 = t204 * t4123;
   const double t4122 = t3514 + t3977;
   const double t4992 = t203 * t4122;
@@ -6058,6 +6052,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t4223 = t395 * 4.793329964628599;
   const double t4226 = t4225 - t4223;
   const double t4243 = t1505 + t4226;
+  // body 9: articulated inertia of 'rf_lower_pivot' (backward sweep)
   const double t4216 = v[23] * 300.0;
   const double t4217 = tau[23] - t4216;
   const double t4218 = t4217 - t1524;
@@ -6077,6 +6072,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t4417 = t359 * 4.793329964628599;
   const double t4420 = t4419 - t4417;
   const double t4437 = t1561 + t4420;
+  // body 10: articulated inertia of 'lf_lower_pivot' (backward sweep)
   const double t4410 = v[24] * 300.0;
   const double t4411 = tau[24] - t4410;
   const double t4412 = t4411 - t1580;
@@ -6096,6 +6092,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t4611 = t319 * 4.793329964628599;
   const double t4614 = t4613 - t4611;
   const double t4631 = t1614 + t4614;
+  // body 11: articulated inertia of 'rr_lower_pivot' (backward sweep)
   const double t4604 = v[25] * 300.0;
   const double t4605 = tau[25] - t4604;
   const double t4606 = t4605 - t1633;
@@ -6115,6 +6112,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t4805 = t279 * 4.793329964628599;
   const double t4808 = t4807 - t4805;
   const double t4825 = t1667 + t4808;
+  // body 12: articulated inertia of 'lr_lower_pivot' (backward sweep)
   const double t4798 = v[26] * 300.0;
   const double t4799 = tau[26] - t4798;
   const double t4800 = t4799 - t1686;
@@ -6135,6 +6133,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t4130 = t157 * t3868;
   const double t4133 = t4132 - t4130;
   const double t4160 = t3552 + t4133;
+  // body 8: articulated inertia of 'rack_slide' (backward sweep)
   const double t4163 = v[22] * 50.0;
   const double t4164 = tau[22] - t4163;
   const double t4165 = t4164 - t1446;
@@ -6189,6 +6188,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t5528 = t210 * 9.81;
   const double t5531 = t5528 - t243;
   const double t5534 = t5000 * t5531;
+  // body 13: acceleration of 'chassis_floating' (forward sweep)
   const double t5527 = t209 * 9.81;
   const double t5530 = t5527 - t240;
   const double t5535 = t4995 * t5530;
@@ -6632,9 +6632,6 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t5639 = t5637 + t5638;
   const double t5640 = t5467 * t5568;
   const double t5642 = t5639 - t5640;
-  // body 12: acceleration of 'lr_lower_pivot' (forward sweep)
-  // body 11: acceleration of 'rr_lower_pivot' (forward sweep)
-  // body 10: acceleration of 'lf_lower_pivot' (forward sweep)
   const double t5725 = t5642 * 1.65;
   const double t5620 = t5271 * t5538;
   const double t5621 = t5325 * t5544;
@@ -6647,15 +6644,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t5628 = t5626 + t5627;
   const double t5629 = t5472 * t5568;
   const double t5630 = t5628 + t5629;
-  // body 9: acceleration of 'rf_lower_pivot' (forward sweep)
-  // body 8: acceleration of 'rack_slide' (forward sweep)
-  // body 7: acceleration of 'lr_upper_pivot' (forward sweep)
-  // body 6: acceleration of 'lr_upper_ball' (forward sweep)
-  // body 5: acceleration of 'rr_upper_pivot' (forward sweep)
   const double t5916 = t5630 * (-0.42);
-  // body 4: acceleration of 'rr_upper_ball' (forward sweep)
-  // body 3: acceleration of 'lf_upper_pivot' (forward sweep)
-  // body 2: acceleration of 'lf_upper_ball' (forward sweep)
   // body 1: acceleration of 'rf_upper_pivot' (forward sweep)
   const double t6134 = t5725 - t5916;
   const double t6135 = t5619 - t6134;
@@ -6678,7 +6667,9 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t5651 = t5649 + t5650;
   const double t5652 = t5466 * t5568;
   const double t5653 = t5651 + t5652;
+  // body 10: acceleration of 'lf_lower_pivot' (forward sweep)
   const double t5723 = t5653 * 1.65;
+  // body 3: acceleration of 'lf_upper_pivot' (forward sweep)
   const double t6025 = t5802 - t5723;
   const double t6027 = t5617 - t6025;
   const double t6140 = t37 * t6027;
@@ -6696,7 +6687,9 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t5598 = t5581 + t5597;
   const double t5614 = t209 * t5613;
   const double t5615 = t5598 + t5614;
+  // body 5: acceleration of 'rr_upper_pivot' (forward sweep)
   const double t5914 = t5653 * (-0.42);
+  // body 7: acceleration of 'lr_upper_pivot' (forward sweep)
   const double t5799 = t5642 * 0.22;
   const double t5915 = t5914 - t5799;
   const double t5918 = t5615 - t5915;
@@ -6720,7 +6713,6 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t6165 = t1927 - t6164;
   const double t6166 = t1925 * t6165;
   const double t6167 = t5630 + t6166;
-  // body 0: acceleration of 'rf_upper_ball' (forward sweep)
   const double t6172 = t6167 * (-0.34);
   const double t6176 = t6153 + t6172;
   const double t6187 = t35 * t6176;
@@ -6728,6 +6720,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t6175 = t6152 - t6171;
   const double t6188 = t31 * t6175;
   const double t6169 = t6151 * (-0.34);
+  // body 0: acceleration of 'rf_upper_ball' (forward sweep)
   const double t6168 = t6150 * (-0.02);
   const double t6170 = t6169 - t6168;
   const double t6174 = t5918 - t6170;
@@ -6837,6 +6830,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t6068 = t6045 - t6064;
   const double t6081 = t71 * t6068;
   const double t6062 = t6044 * 0.34;
+  // body 2: acceleration of 'lf_upper_ball' (forward sweep)
   const double t6061 = t6043 * (-0.02);
   const double t6063 = t6062 - t6061;
   const double t6067 = t5806 - t6063;
@@ -6907,6 +6901,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t5917 = t5661 - t5916;
   const double t5919 = t5619 - t5917;
   const double t5923 = t118 * t5919;
+  // body 12: acceleration of 'lr_lower_pivot' (forward sweep)
   const double t5657 = t5653 * (-1.65);
   const double t5803 = t5802 - t5657;
   const double t5807 = t5617 - t5803;
@@ -6946,6 +6941,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t5959 = t5936 - t5955;
   const double t5972 = t111 * t5959;
   const double t5953 = t5935 * (-0.34);
+  // body 4: acceleration of 'rr_upper_ball' (forward sweep)
   const double t5952 = t5934 * (-0.02);
   const double t5954 = t5953 - t5952;
   const double t5958 = t5918 - t5954;
@@ -7051,6 +7047,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t5848 = t5825 - t5844;
   const double t5861 = t151 * t5848;
   const double t5842 = t5824 * 0.34;
+  // body 6: acceleration of 'lr_upper_ball' (forward sweep)
   const double t5841 = t5823 * (-0.02);
   const double t5843 = t5842 - t5841;
   const double t5847 = t5806 - t5843;
@@ -7118,6 +7115,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   qdd[21] = t5912;
   qdd[18] = t5839;
   const double t5785 = t5630 * (-0.02);
+  // body 8: acceleration of 'rack_slide' (forward sweep)
   const double t5784 = t5653 * 1.47;
   const double t5786 = t5785 - t5784;
   const double t5791 = t5617 - t5786;
@@ -7126,7 +7124,9 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t5797 = t5796 * 0.2;
   qdd[22] = t5797;
   const double t5687 = t5630 * 1.1874;
+  // body 11: acceleration of 'rr_lower_pivot' (forward sweep)
   const double t5694 = t5630 * (-0.36);
+  // body 9: acceleration of 'rf_lower_pivot' (forward sweep)
   const double t5754 = t5725 - t5694;
   const double t5755 = t5619 - t5754;
   const double t5759 = t163 * t5755;
@@ -7264,19 +7264,6 @@ int check_articulated(const double* D, const double* qdd) {
 // ---- mass_matrix() and bias_forces(): specialized programs ----
 // mass_matrix(): specialized kinematics and M (eq. 14, 18)
 void mass_matrix_part(const double* q, double* M) {
-  // body 0: joint transform X_PC of 'rf_upper_ball' (ball)
-  // body 1: joint transform X_PC of 'rf_upper_pivot' (revolute)
-  // body 2: joint transform X_PC of 'lf_upper_ball' (ball)
-  // body 3: joint transform X_PC of 'lf_upper_pivot' (revolute)
-  // body 4: joint transform X_PC of 'rr_upper_ball' (ball)
-  // body 5: joint transform X_PC of 'rr_upper_pivot' (revolute)
-  // body 6: joint transform X_PC of 'lr_upper_ball' (ball)
-  // body 7: joint transform X_PC of 'lr_upper_pivot' (revolute)
-  // body 8: joint transform X_PC of 'rack_slide' (prismatic)
-  // body 9: joint transform X_PC of 'rf_lower_pivot' (revolute)
-  // body 10: joint transform X_PC of 'lf_lower_pivot' (revolute)
-  // body 11: joint transform X_PC of 'rr_lower_pivot' (revolute)
-  // body 12: joint transform X_PC of 'lr_lower_pivot' (revolute)
   // body 13: joint transform X_PC of 'chassis_floating' (floating)
   const double t181 = q[6] * q[6];
   const double t182 = q[5] * q[5];
@@ -7291,33 +7278,6 @@ void mass_matrix_part(const double* q, double* M) {
   const double t191 = q[6] * t188;
   const double t197 = q[4] * t191;
   const double t204 = t193 + t197;
-  // body 0: composite inertia of 'rf_upper_ball' added to its parent
-  // body 1: composite inertia of 'rf_upper_pivot' added to its parent
-  // body 2: composite inertia of 'lf_upper_ball' added to its parent
-  // body 3: composite inertia of 'lf_upper_pivot' added to its parent
-  // body 4: composite inertia of 'rr_upper_ball' added to its parent
-  // body 5: composite inertia of 'rr_upper_pivot' added to its parent
-  // body 6: composite inertia of 'lr_upper_ball' added to its parent
-  // body 7: composite inertia of 'lr_upper_pivot' added to its parent
-  // body 8: composite inertia of 'rack_slide' added to its parent
-  // body 9: composite inertia of 'rf_lower_pivot' added to its parent
-  // body 10: composite inertia of 'lf_lower_pivot' added to its parent
-  // body 11: composite inertia of 'rr_lower_pivot' added to its parent
-  // body 12: composite inertia of 'lr_lower_pivot' added to its parent
-  // body 0: columns of M of 'rf_upper_ball' (eq. 18)
-  // body 1: columns of M of 'rf_upper_pivot' (eq. 18)
-  // body 2: columns of M of 'lf_upper_ball' (eq. 18)
-  // body 3: columns of M of 'lf_upper_pivot' (eq. 18)
-  // body 4: columns of M of 'rr_upper_ball' (eq. 18)
-  // body 5: columns of M of 'rr_upper_pivot' (eq. 18)
-  // body 6: columns of M of 'lr_upper_ball' (eq. 18)
-  // body 7: columns of M of 'lr_upper_pivot' (eq. 18)
-  // body 8: columns of M of 'rack_slide' (eq. 18)
-  // body 9: columns of M of 'rf_lower_pivot' (eq. 18)
-  // body 10: columns of M of 'lf_lower_pivot' (eq. 18)
-  // body 11: columns of M of 'rr_lower_pivot' (eq. 18)
-  // body 12: columns of M of 'lr_lower_pivot' (eq. 18)
-  // body 13: columns of M of 'chassis_floating' (eq. 18)
   const double t2017 = t204 * 2405.0;
   const double t2054 = t204 * t2017;
   const double t196 = q[4] * t190;
@@ -7329,6 +7289,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t200 = q[6] * t191;
   const double t201 = t198 + t200;
   const double t202 = 1.0 - t201;
+  // body 13: columns of M of 'chassis_floating' (eq. 18)
   const double t2015 = t202 * 2405.0;
   const double t2056 = t202 * t2015;
   const double t2057 = t2055 + t2056;
@@ -7359,6 +7320,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t2068 = t2064 + t2067;
   M[2] = t2068;
   const double t38 = std::cos(q[7]);
+  // body 0: joint transform X_PC of 'rf_upper_ball' (ball)
   const double t4 = q[11] * q[11];
   const double t5 = q[10] * q[10];
   const double t6 = q[9] * q[9];
@@ -7382,6 +7344,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t226 = t222 + (-28.900000000000002);
   const double t228 = t226 + (-2.04);
   const double t310 = t38 * t228;
+  // body 1: joint transform X_PC of 'rf_upper_pivot' (revolute)
   const double t37 = std::sin(q[7]);
   const double t13 = q[10] * t11;
   const double t21 = q[10] * t13;
@@ -7393,10 +7356,12 @@ void mass_matrix_part(const double* q, double* M) {
   const double t225 = t223 + t224;
   const double t227 = t225 + (-1.7);
   const double t229 = t227 + (-0.12);
+  // body 1: composite inertia of 'rf_upper_pivot' added to its parent
   const double t308 = t37 * t229;
   const double t311 = t310 - t308;
   const double t316 = t311 + (-40.74);
   const double t78 = std::cos(q[12]);
+  // body 2: joint transform X_PC of 'lf_upper_ball' (ball)
   const double t44 = q[16] * q[16];
   const double t45 = q[15] * q[15];
   const double t46 = q[14] * q[14];
@@ -7420,6 +7385,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t396 = t392 + 28.900000000000002;
   const double t398 = t396 + 2.04;
   const double t480 = t78 * t398;
+  // body 3: joint transform X_PC of 'lf_upper_pivot' (revolute)
   const double t77 = std::sin(q[12]);
   const double t53 = q[15] * t51;
   const double t61 = q[15] * t53;
@@ -7431,11 +7397,13 @@ void mass_matrix_part(const double* q, double* M) {
   const double t395 = t393 + t394;
   const double t397 = t395 + (-1.7);
   const double t399 = t397 + (-0.12);
+  // body 3: composite inertia of 'lf_upper_pivot' added to its parent
   const double t478 = t77 * t399;
   const double t481 = t480 - t478;
   const double t486 = t481 + 40.74;
   const double t489 = t316 + t486;
   const double t118 = std::cos(q[17]);
+  // body 4: joint transform X_PC of 'rr_upper_ball' (ball)
   const double t84 = q[21] * q[21];
   const double t85 = q[20] * q[20];
   const double t86 = q[19] * q[19];
@@ -7459,6 +7427,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t569 = t565 + (-28.900000000000002);
   const double t571 = t569 + (-2.04);
   const double t653 = t118 * t571;
+  // body 5: joint transform X_PC of 'rr_upper_pivot' (revolute)
   const double t117 = std::sin(q[17]);
   const double t93 = q[20] * t91;
   const double t101 = q[20] * t93;
@@ -7470,11 +7439,13 @@ void mass_matrix_part(const double* q, double* M) {
   const double t568 = t566 + t567;
   const double t570 = t568 + (-1.7);
   const double t572 = t570 + (-0.12);
+  // body 5: composite inertia of 'rr_upper_pivot' added to its parent
   const double t651 = t117 * t572;
   const double t654 = t653 - t651;
   const double t659 = t654 + (-40.74);
   const double t662 = t489 + t659;
   const double t158 = std::cos(q[22]);
+  // body 6: joint transform X_PC of 'lr_upper_ball' (ball)
   const double t124 = q[26] * q[26];
   const double t125 = q[25] * q[25];
   const double t126 = q[24] * q[24];
@@ -7498,6 +7469,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t742 = t738 + 28.900000000000002;
   const double t744 = t742 + 2.04;
   const double t826 = t158 * t744;
+  // body 7: joint transform X_PC of 'lr_upper_pivot' (revolute)
   const double t157 = std::sin(q[22]);
   const double t133 = q[25] * t131;
   const double t141 = q[25] * t133;
@@ -7509,36 +7481,47 @@ void mass_matrix_part(const double* q, double* M) {
   const double t741 = t739 + t740;
   const double t743 = t741 + (-1.7);
   const double t745 = t743 + (-0.12);
+  // body 7: composite inertia of 'lr_upper_pivot' added to its parent
   const double t824 = t157 * t745;
   const double t827 = t826 - t824;
   const double t832 = t827 + 40.74;
   const double t835 = t662 + t832;
+  // body 8: composite inertia of 'rack_slide' added to its parent
   const double t906 = q[27] * 5.0;
   const double t908 = t835 + t906;
   const double t163 = std::cos(q[28]);
   const double t930 = t163 * (-3.96);
+  // body 8: joint transform X_PC of 'rack_slide' (prismatic)
+  // body 9: joint transform X_PC of 'rf_lower_pivot' (revolute)
   const double t162 = std::sin(q[28]);
+  // body 9: composite inertia of 'rf_lower_pivot' added to its parent
   const double t928 = t162 * (-0.54);
   const double t931 = t930 - t928;
   const double t935 = t931 + (-6.4799999999999995);
   const double t938 = t908 + t935;
   const double t167 = std::cos(q[29]);
   const double t994 = t167 * 3.96;
+  // body 10: joint transform X_PC of 'lf_lower_pivot' (revolute)
   const double t166 = std::sin(q[29]);
+  // body 10: composite inertia of 'lf_lower_pivot' added to its parent
   const double t992 = t166 * (-0.54);
   const double t995 = t994 - t992;
   const double t999 = t995 + 6.4799999999999995;
   const double t1002 = t938 + t999;
   const double t171 = std::cos(q[30]);
   const double t1058 = t171 * (-3.96);
+  // body 11: joint transform X_PC of 'rr_lower_pivot' (revolute)
   const double t170 = std::sin(q[30]);
+  // body 11: composite inertia of 'rr_lower_pivot' added to its parent
   const double t1056 = t170 * (-0.54);
   const double t1059 = t1058 - t1056;
   const double t1063 = t1059 + (-6.4799999999999995);
   const double t1066 = t1002 + t1063;
   const double t175 = std::cos(q[31]);
   const double t1122 = t175 * 3.96;
+  // body 12: joint transform X_PC of 'lr_lower_pivot' (revolute)
   const double t174 = std::sin(q[31]);
+  // body 12: composite inertia of 'lr_lower_pivot' added to its parent
   const double t1120 = t174 * (-0.54);
   const double t1123 = t1122 - t1120;
   const double t1127 = t1123 + 6.4799999999999995;
@@ -7592,6 +7575,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t16 = q[8] * t13;
   const double t20 = q[9] * t14;
   const double t27 = t16 + t20;
+  // body 0: composite inertia of 'rf_upper_ball' added to its parent
   const double t217 = t27 * (-17.0);
   const double t19 = q[9] * t13;
   const double t17 = q[8] * t14;
@@ -7603,6 +7587,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t56 = q[13] * t53;
   const double t60 = q[14] * t54;
   const double t67 = t56 + t60;
+  // body 2: composite inertia of 'lf_upper_ball' added to its parent
   const double t387 = t67 * (-17.0);
   const double t59 = q[14] * t53;
   const double t57 = q[13] * t54;
@@ -7614,6 +7599,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t96 = q[18] * t93;
   const double t100 = q[19] * t94;
   const double t107 = t96 + t100;
+  // body 4: composite inertia of 'rr_upper_ball' added to its parent
   const double t560 = t107 * (-17.0);
   const double t99 = q[19] * t93;
   const double t97 = q[18] * t94;
@@ -7625,6 +7611,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t136 = q[23] * t133;
   const double t140 = q[24] * t134;
   const double t147 = t136 + t140;
+  // body 6: composite inertia of 'lr_upper_ball' added to its parent
   const double t733 = t147 * (-17.0);
   const double t139 = q[24] * t133;
   const double t137 = q[23] * t134;
@@ -7646,6 +7633,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t2026 = t2025 - t2024;
   M[5] = t2026;
   const double t1361 = t204 * t311;
+  // body 1: columns of M of 'rf_upper_pivot' (eq. 18)
   const double t1352 = -t312;
   const double t1353 = t1352 - t313;
   const double t1362 = t203 * t1353;
@@ -7665,6 +7653,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t1226 = t37 * t1192;
   const double t1229 = t1228 - t1226;
   const double t1305 = t203 * t1229;
+  // body 0: columns of M of 'rf_upper_ball' (eq. 18)
   const double t1184 = t27 * (-12.75);
   const double t1185 = t26 * 17.0;
   const double t1186 = t1184 + t1185;
@@ -7707,6 +7696,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t1338 = t1334 + t1337;
   M[9] = t1338;
   const double t1547 = t204 * t481;
+  // body 3: columns of M of 'lf_upper_pivot' (eq. 18)
   const double t1538 = -t482;
   const double t1539 = t1538 - t483;
   const double t1548 = t203 * t1539;
@@ -7726,6 +7716,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t1412 = t77 * t1378;
   const double t1415 = t1414 - t1412;
   const double t1491 = t203 * t1415;
+  // body 2: columns of M of 'lf_upper_ball' (eq. 18)
   const double t1370 = t67 * 12.75;
   const double t1371 = t66 * 17.0;
   const double t1372 = t1370 + t1371;
@@ -7768,6 +7759,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t1524 = t1520 + t1523;
   M[13] = t1524;
   const double t1733 = t204 * t654;
+  // body 5: columns of M of 'rr_upper_pivot' (eq. 18)
   const double t1724 = -t655;
   const double t1725 = t1724 - t656;
   const double t1734 = t203 * t1725;
@@ -7787,6 +7779,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t1598 = t117 * t1564;
   const double t1601 = t1600 - t1598;
   const double t1677 = t203 * t1601;
+  // body 4: columns of M of 'rr_upper_ball' (eq. 18)
   const double t1556 = t107 * (-12.75);
   const double t1557 = t106 * 17.0;
   const double t1558 = t1556 + t1557;
@@ -7829,6 +7822,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t1710 = t1706 + t1709;
   M[17] = t1710;
   const double t1919 = t204 * t827;
+  // body 7: columns of M of 'lr_upper_pivot' (eq. 18)
   const double t1910 = -t828;
   const double t1911 = t1910 - t829;
   const double t1920 = t203 * t1911;
@@ -7848,6 +7842,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t1784 = t157 * t1750;
   const double t1787 = t1786 - t1784;
   const double t1863 = t203 * t1787;
+  // body 6: columns of M of 'lr_upper_ball' (eq. 18)
   const double t1742 = t147 * 12.75;
   const double t1743 = t146 * 17.0;
   const double t1744 = t1742 + t1743;
@@ -7889,11 +7884,13 @@ void mass_matrix_part(const double* q, double* M) {
   const double t1895 = t1893 + t1894;
   const double t1896 = t1892 + t1895;
   M[21] = t1896;
+  // body 8: columns of M of 'rack_slide' (eq. 18)
   const double t1928 = t203 * 5.0;
   M[22] = t1928;
   const double t1934 = t162 * 0.54;
   const double t1935 = t930 + t1934;
   const double t1943 = t204 * t1935;
+  // body 9: columns of M of 'rf_lower_pivot' (eq. 18)
   const double t1932 = t163 * 0.54;
   const double t1933 = t1932 - t933;
   const double t1944 = t203 * t1933;
@@ -7902,6 +7899,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t1955 = t166 * 0.54;
   const double t1956 = t994 + t1955;
   const double t1964 = t204 * t1956;
+  // body 10: columns of M of 'lf_lower_pivot' (eq. 18)
   const double t1953 = t167 * 0.54;
   const double t1954 = t1953 - t997;
   const double t1965 = t203 * t1954;
@@ -7910,6 +7908,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t1976 = t170 * 0.54;
   const double t1977 = t1058 + t1976;
   const double t1985 = t204 * t1977;
+  // body 11: columns of M of 'rr_lower_pivot' (eq. 18)
   const double t1974 = t171 * 0.54;
   const double t1975 = t1974 - t1061;
   const double t1986 = t203 * t1975;
@@ -7918,6 +7917,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t1997 = t174 * 0.54;
   const double t1998 = t1122 + t1997;
   const double t2006 = t204 * t1998;
+  // body 12: columns of M of 'lr_lower_pivot' (eq. 18)
   const double t1995 = t175 * 0.54;
   const double t1996 = t1995 - t1125;
   const double t2007 = t203 * t1996;
@@ -10002,19 +10002,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t14 = q[11] * t11;
   const double t22 = q[10] * t14;
   const double t33 = t15 + t22;
-  // body 1: joint transform X_PC of 'rf_upper_pivot' (revolute)
   const double t38 = std::cos(q[7]);
-  // body 2: joint transform X_PC of 'lf_upper_ball' (ball)
-  // body 3: joint transform X_PC of 'lf_upper_pivot' (revolute)
-  // body 4: joint transform X_PC of 'rr_upper_ball' (ball)
-  // body 5: joint transform X_PC of 'rr_upper_pivot' (revolute)
-  // body 6: joint transform X_PC of 'lr_upper_ball' (ball)
-  // body 7: joint transform X_PC of 'lr_upper_pivot' (revolute)
-  // body 8: joint transform X_PC of 'rack_slide' (prismatic)
-  // body 9: joint transform X_PC of 'rf_lower_pivot' (revolute)
-  // body 10: joint transform X_PC of 'lf_lower_pivot' (revolute)
-  // body 11: joint transform X_PC of 'rr_lower_pivot' (revolute)
-  // body 12: joint transform X_PC of 'lr_lower_pivot' (revolute)
   // body 13: joint transform X_PC of 'chassis_floating' (floating)
   const double t181 = q[6] * q[6];
   const double t182 = q[5] * q[5];
@@ -10029,7 +10017,6 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t191 = q[6] * t188;
   const double t197 = q[4] * t191;
   const double t204 = t193 + t197;
-  // body 13: velocity and velocity-product acceleration of 'chassis_floating'
   const double t220 = t204 * v[0];
   const double t199 = q[5] * t191;
   const double t189 = q[4] * t188;
@@ -10043,23 +10030,13 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t212 = 1.0 - t211;
   const double t233 = t212 * v[2];
   const double t234 = t227 + t233;
-  // body 12: velocity and velocity-product acceleration of 'lr_lower_pivot'
-  // body 11: velocity and velocity-product acceleration of 'rr_lower_pivot'
-  // body 10: velocity and velocity-product acceleration of 'lf_lower_pivot'
   const double t339 = v[4] * 1.65;
-  // body 9: velocity and velocity-product acceleration of 'rf_lower_pivot'
-  // body 8: velocity and velocity-product acceleration of 'rack_slide'
-  // body 7: velocity and velocity-product acceleration of 'lr_upper_pivot'
-  // body 6: velocity and velocity-product acceleration of 'lr_upper_ball'
-  // body 5: velocity and velocity-product acceleration of 'rr_upper_pivot'
   const double t579 = v[3] * (-0.42);
-  // body 4: velocity and velocity-product acceleration of 'rr_upper_ball'
-  // body 3: velocity and velocity-product acceleration of 'lf_upper_pivot'
-  // body 2: velocity and velocity-product acceleration of 'lf_upper_ball'
   // body 1: velocity and velocity-product acceleration of 'rf_upper_pivot'
   const double t857 = t339 - t579;
   const double t858 = t234 - t857;
   const double t862 = t38 * t858;
+  // body 1: joint transform X_PC of 'rf_upper_pivot' (revolute)
   const double t37 = std::sin(q[7]);
   const double t196 = q[4] * t190;
   const double t194 = q[3] * t191;
@@ -10074,13 +10051,14 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t231 = t210 * v[2];
   const double t232 = t225 + t231;
   const double t435 = v[3] * 0.22;
+  // body 10: velocity and velocity-product acceleration of 'lf_lower_pivot'
   const double t337 = v[5] * 1.65;
+  // body 3: velocity and velocity-product acceleration of 'lf_upper_pivot'
   const double t718 = t435 - t337;
   const double t720 = t232 - t718;
   const double t863 = t37 * t720;
   const double t865 = t862 - t863;
   const double t873 = v[3] + v[6];
-  // body 0: velocity and velocity-product acceleration of 'rf_upper_ball'
   const double t899 = t873 * (-0.34);
   const double t903 = t865 + t899;
   const double t909 = t33 * t903;
@@ -10100,6 +10078,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t26 = t19 - t17;
   const double t201 = t198 + t200;
   const double t202 = 1.0 - t201;
+  // body 13: velocity and velocity-product acceleration of 'chassis_floating'
   const double t218 = t202 * v[0];
   const double t205 = t194 + t196;
   const double t222 = t205 * v[1];
@@ -10107,7 +10086,9 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t209 = t197 - t193;
   const double t229 = t209 * v[2];
   const double t230 = t223 + t229;
+  // body 5: velocity and velocity-product acceleration of 'rr_upper_pivot'
   const double t577 = v[5] * (-0.42);
+  // body 7: velocity and velocity-product acceleration of 'lr_upper_pivot'
   const double t432 = v[4] * 0.22;
   const double t578 = t577 - t432;
   const double t581 = t230 - t578;
@@ -10118,6 +10099,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t866 = t37 * v[5];
   const double t867 = t38 * v[4];
   const double t868 = t866 + t867;
+  // body 0: velocity and velocity-product acceleration of 'rf_upper_ball'
   const double t895 = t868 * (-0.02);
   const double t897 = t896 - t895;
   const double t901 = t581 - t897;
@@ -10137,21 +10119,6 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t922 = t920 + t921;
   const double t923 = t919 + t922;
   const double t934 = v[7] + t923;
-  // body 13: acceleration of 'chassis_floating' with gravity
-  // body 12: acceleration of 'lr_lower_pivot' with gravity
-  // body 11: acceleration of 'rr_lower_pivot' with gravity
-  // body 10: acceleration of 'lf_lower_pivot' with gravity
-  // body 9: acceleration of 'rf_lower_pivot' with gravity
-  // body 8: acceleration of 'rack_slide' with gravity
-  // body 7: acceleration of 'lr_upper_pivot' with gravity
-  // body 6: acceleration of 'lr_upper_ball' with gravity
-  // body 5: acceleration of 'rr_upper_pivot' with gravity
-  // body 4: acceleration of 'rr_upper_ball' with gravity
-  // body 3: acceleration of 'lf_upper_pivot' with gravity
-  // body 2: acceleration of 'lf_upper_ball' with gravity
-  // body 1: acceleration of 'rf_upper_pivot' with gravity
-  // body 0: acceleration of 'rf_upper_ball' with gravity
-  // body 0: Newton-Euler force of 'rf_upper_ball'
   const double t1153 = t934 * (-12.75);
   const double t34 = t18 + t21;
   const double t35 = 1.0 - t34;
@@ -10221,11 +10188,13 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1129 = t1127 - t875;
   const double t1141 = t35 * t1129;
   const double t874 = v[6] * t865;
+  // body 1: acceleration of 'rf_upper_pivot' with gravity
   const double t1121 = t37 * t998;
   const double t1122 = t38 * t997;
   const double t1123 = t1121 + t1122;
   const double t1128 = t874 + t1123;
   const double t1142 = t31 * t1128;
+  // body 13: acceleration of 'chassis_floating' with gravity
   const double t993 = t209 * 9.81;
   const double t239 = t234 * v[4];
   const double t238 = t232 * v[5];
@@ -10237,6 +10206,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t877 = v[6] * t872;
   const double t955 = t877 * (-0.02);
   const double t958 = t957 - t955;
+  // body 0: acceleration of 'rf_upper_ball' with gravity
   const double t1130 = t996 - t958;
   const double t1143 = t27 * t1130;
   const double t1144 = t1142 + t1143;
@@ -10267,6 +10237,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   h[7] = t1235;
   const double t1155 = t908 * 85.0;
   const double t1150 = t936 * (-12.75);
+  // body 0: Newton-Euler force of 'rf_upper_ball'
   const double t1149 = t935 * (-17.0);
   const double t1151 = t1150 - t1149;
   const double t1158 = t1155 - t1151;
@@ -10326,7 +10297,6 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1234 = t1231 - t1223;
   const double t1237 = t1206 + t1234;
   h[9] = t1237;
-  // body 1: Newton-Euler force of 'rf_upper_pivot'
   const double t1245 = t873 * (-2.04);
   const double t1249 = t865 * 12.0;
   const double t1252 = t1245 + t1249;
@@ -10361,19 +10331,6 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1215 = t1148 * 85.0;
   const double t1218 = t1211 + t1215;
   const double t1240 = t1185 + t1218;
-  // body 2: Newton-Euler force of 'lf_upper_ball'
-  // body 3: Newton-Euler force of 'lf_upper_pivot'
-  // body 4: Newton-Euler force of 'rr_upper_ball'
-  // body 5: Newton-Euler force of 'rr_upper_pivot'
-  // body 6: Newton-Euler force of 'lr_upper_ball'
-  // body 7: Newton-Euler force of 'lr_upper_pivot'
-  // body 8: Newton-Euler force of 'rack_slide'
-  // body 9: Newton-Euler force of 'rf_lower_pivot'
-  // body 10: Newton-Euler force of 'lf_lower_pivot'
-  // body 11: Newton-Euler force of 'rr_lower_pivot'
-  // body 12: Newton-Euler force of 'lr_lower_pivot'
-  // body 13: Newton-Euler force of 'chassis_floating'
-  // body 0: bias forces of 'rf_upper_ball'
   const double t2310 = t35 * t1240;
   const double t1181 = t936 * t1158;
   const double t1180 = t934 * t1160;
@@ -10411,6 +10368,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2336 = t2317 + t2325;
   const double t2339 = t1323 + t2336;
   h[6] = t2339;
+  // body 2: joint transform X_PC of 'lf_upper_ball' (ball)
   const double t44 = q[16] * q[16];
   const double t45 = q[15] * q[15];
   const double t46 = q[14] * q[14];
@@ -10429,6 +10387,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t719 = t339 - t437;
   const double t721 = t234 - t719;
   const double t725 = t78 * t721;
+  // body 3: joint transform X_PC of 'lf_upper_pivot' (revolute)
   const double t77 = std::sin(q[12]);
   const double t726 = t77 * t720;
   const double t728 = t725 - t726;
@@ -10460,6 +10419,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t729 = t77 * v[5];
   const double t730 = t78 * v[4];
   const double t731 = t729 + t730;
+  // body 2: velocity and velocity-product acceleration of 'lf_upper_ball'
   const double t758 = t731 * (-0.02);
   const double t760 = t759 - t758;
   const double t764 = t439 - t760;
@@ -10538,6 +10498,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1101 = t1099 - t738;
   const double t1113 = t75 * t1101;
   const double t737 = v[10] * t728;
+  // body 3: acceleration of 'lf_upper_pivot' with gravity
   const double t1093 = t77 * t998;
   const double t1094 = t78 * t997;
   const double t1095 = t1093 + t1094;
@@ -10549,6 +10510,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t740 = v[10] * t735;
   const double t818 = t740 * (-0.02);
   const double t821 = t820 - t818;
+  // body 2: acceleration of 'lf_upper_ball' with gravity
   const double t1102 = t996 - t821;
   const double t1115 = t67 * t1102;
   const double t1116 = t1114 + t1115;
@@ -10579,6 +10541,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   h[11] = t1415;
   const double t1335 = t771 * 85.0;
   const double t1330 = t799 * 12.75;
+  // body 2: Newton-Euler force of 'lf_upper_ball'
   const double t1329 = t798 * (-17.0);
   const double t1331 = t1330 - t1329;
   const double t1338 = t1335 - t1331;
@@ -10672,8 +10635,6 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1395 = t1120 * 85.0;
   const double t1398 = t1391 + t1395;
   const double t1420 = t1365 + t1398;
-  // body 1: bias forces of 'rf_upper_pivot'
-  // body 2: bias forces of 'lf_upper_ball'
   const double t2387 = t75 * t1420;
   const double t1361 = t799 * t1338;
   const double t1360 = t797 * t1340;
@@ -10711,6 +10672,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2413 = t2394 + t2402;
   const double t2416 = t1501 + t2413;
   h[10] = t2416;
+  // body 4: joint transform X_PC of 'rr_upper_ball' (ball)
   const double t84 = q[21] * q[21];
   const double t85 = q[20] * q[20];
   const double t86 = q[19] * q[19];
@@ -10729,6 +10691,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t580 = t258 - t579;
   const double t582 = t234 - t580;
   const double t586 = t118 * t582;
+  // body 5: joint transform X_PC of 'rr_upper_pivot' (revolute)
   const double t117 = std::sin(q[17]);
   const double t254 = v[5] * (-1.65);
   const double t436 = t435 - t254;
@@ -10760,6 +10723,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t590 = t117 * v[5];
   const double t591 = t118 * v[4];
   const double t592 = t590 + t591;
+  // body 4: velocity and velocity-product acceleration of 'rr_upper_ball'
   const double t619 = t592 * (-0.02);
   const double t621 = t620 - t619;
   const double t625 = t581 - t621;
@@ -10838,6 +10802,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1073 = t1071 - t599;
   const double t1085 = t115 * t1073;
   const double t598 = v[14] * t589;
+  // body 5: acceleration of 'rr_upper_pivot' with gravity
   const double t1065 = t117 * t998;
   const double t1066 = t118 * t997;
   const double t1067 = t1065 + t1066;
@@ -10849,6 +10814,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t601 = v[14] * t596;
   const double t679 = t601 * (-0.02);
   const double t682 = t681 - t679;
+  // body 4: acceleration of 'rr_upper_ball' with gravity
   const double t1074 = t996 - t682;
   const double t1087 = t107 * t1074;
   const double t1088 = t1086 + t1087;
@@ -10879,6 +10845,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   h[15] = t1593;
   const double t1513 = t632 * 85.0;
   const double t1508 = t660 * (-12.75);
+  // body 4: Newton-Euler force of 'rr_upper_ball'
   const double t1507 = t659 * (-17.0);
   const double t1509 = t1508 - t1507;
   const double t1516 = t1513 - t1509;
@@ -10970,8 +10937,6 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1573 = t1092 * 85.0;
   const double t1576 = t1569 + t1573;
   const double t1598 = t1543 + t1576;
-  // body 3: bias forces of 'lf_upper_pivot'
-  // body 4: bias forces of 'rr_upper_ball'
   const double t2464 = t115 * t1598;
   const double t1539 = t660 * t1516;
   const double t1538 = t658 * t1518;
@@ -11009,6 +10974,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2490 = t2471 + t2479;
   const double t2493 = t1673 + t2490;
   h[14] = t2493;
+  // body 6: joint transform X_PC of 'lr_upper_ball' (ball)
   const double t124 = q[26] * q[26];
   const double t125 = q[25] * q[25];
   const double t126 = q[24] * q[24];
@@ -11026,6 +10992,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t438 = t258 - t437;
   const double t441 = t234 - t438;
   const double t445 = t158 * t441;
+  // body 7: joint transform X_PC of 'lr_upper_pivot' (revolute)
   const double t157 = std::sin(q[22]);
   const double t446 = t157 * t440;
   const double t448 = t445 - t446;
@@ -11054,6 +11021,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t449 = t157 * v[5];
   const double t450 = t158 * v[4];
   const double t451 = t449 + t450;
+  // body 6: velocity and velocity-product acceleration of 'lr_upper_ball'
   const double t478 = t451 * (-0.02);
   const double t480 = t479 - t478;
   const double t484 = t439 - t480;
@@ -11132,6 +11100,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1045 = t1043 - t458;
   const double t1057 = t155 * t1045;
   const double t457 = v[18] * t448;
+  // body 7: acceleration of 'lr_upper_pivot' with gravity
   const double t1037 = t157 * t998;
   const double t1038 = t158 * t997;
   const double t1039 = t1037 + t1038;
@@ -11143,6 +11112,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t460 = v[18] * t455;
   const double t538 = t460 * (-0.02);
   const double t541 = t540 - t538;
+  // body 6: acceleration of 'lr_upper_ball' with gravity
   const double t1046 = t996 - t541;
   const double t1059 = t147 * t1046;
   const double t1060 = t1058 + t1059;
@@ -11173,6 +11143,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   h[19] = t1765;
   const double t1685 = t491 * 85.0;
   const double t1680 = t519 * 12.75;
+  // body 6: Newton-Euler force of 'lr_upper_ball'
   const double t1679 = t518 * (-17.0);
   const double t1681 = t1680 - t1679;
   const double t1688 = t1685 - t1681;
@@ -11264,8 +11235,6 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1745 = t1064 * 85.0;
   const double t1748 = t1741 + t1745;
   const double t1770 = t1715 + t1748;
-  // body 5: bias forces of 'rr_upper_pivot'
-  // body 6: bias forces of 'lr_upper_ball'
   const double t2541 = t155 * t1770;
   const double t1711 = t519 * t1688;
   const double t1710 = t517 * t1690;
@@ -11304,9 +11273,11 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2570 = t1845 + t2567;
   h[18] = t2570;
   const double t414 = q[27] * v[5];
+  // body 8: velocity and velocity-product acceleration of 'rack_slide'
   const double t413 = v[4] * (-0.02);
   const double t415 = t414 - t413;
   const double t422 = t230 - t415;
+  // body 8: Newton-Euler force of 'rack_slide'
   const double t1851 = t422 * 5.0;
   const double t1861 = v[5] * t1851;
   const double t420 = v[4] * 1.47;
@@ -11318,13 +11289,15 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1862 = t1861 - t1860;
   const double t1888 = t997 * 5.0;
   const double t1891 = t1862 + t1888;
-  // body 7: bias forces of 'lr_upper_pivot'
   // body 8: bias forces of 'rack_slide'
   const double t2608 = v[22] * 50.0;
   const double t2609 = t1891 + t2608;
   h[22] = t2609;
+  // body 8: joint transform X_PC of 'rack_slide' (prismatic)
+  // body 9: joint transform X_PC of 'rf_lower_pivot' (revolute)
   const double t162 = std::sin(q[28]);
   const double t299 = v[3] * (-0.36);
+  // body 9: velocity and velocity-product acceleration of 'rf_lower_pivot'
   const double t377 = t339 - t299;
   const double t378 = t234 - t377;
   const double t379 = t162 * t378;
@@ -11356,7 +11329,9 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1915 = t392 * 1.46535;
   const double t1916 = t388 * (-0.1188);
   const double t1917 = t1915 + t1916;
+  // body 11: velocity and velocity-product acceleration of 'rr_lower_pivot'
   const double t297 = v[5] * (-0.36);
+  // body 12: velocity and velocity-product acceleration of 'lr_lower_pivot'
   const double t251 = v[4] * (-0.14);
   const double t298 = t297 - t251;
   const double t301 = t230 - t298;
@@ -11378,6 +11353,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1034 = t1032 - t395;
   const double t1960 = t1034 * (-3.96);
   const double t394 = v[23] * t385;
+  // body 9: acceleration of 'rf_lower_pivot' with gravity
   const double t1026 = t162 * t998;
   const double t1027 = t163 * t997;
   const double t1028 = t1026 + t1027;
@@ -11389,6 +11365,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2628 = v[23] * 300.0;
   const double t2629 = t1975 + t2628;
   h[23] = t2629;
+  // body 10: joint transform X_PC of 'lf_lower_pivot' (revolute)
   const double t166 = std::sin(q[29]);
   const double t257 = v[3] * 0.36;
   const double t340 = t339 - t257;
@@ -11440,6 +11417,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1025 = t1023 - t359;
   const double t2047 = t1025 * 3.96;
   const double t358 = v[24] * t349;
+  // body 10: acceleration of 'lf_lower_pivot' with gravity
   const double t1017 = t166 * t998;
   const double t1018 = t167 * t997;
   const double t1019 = t1017 + t1018;
@@ -11451,6 +11429,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2662 = v[24] * 300.0;
   const double t2663 = t2061 + t2662;
   h[24] = t2663;
+  // body 11: joint transform X_PC of 'rr_lower_pivot' (revolute)
   const double t170 = std::sin(q[30]);
   const double t300 = t258 - t299;
   const double t302 = t234 - t300;
@@ -11498,6 +11477,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1016 = t1014 - t319;
   const double t2129 = t1016 * (-3.96);
   const double t318 = v[25] * t309;
+  // body 11: acceleration of 'rr_lower_pivot' with gravity
   const double t1008 = t170 * t998;
   const double t1009 = t171 * t997;
   const double t1010 = t1008 + t1009;
@@ -11509,6 +11489,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2696 = v[25] * 300.0;
   const double t2697 = t2141 + t2696;
   h[25] = t2697;
+  // body 12: joint transform X_PC of 'lr_lower_pivot' (revolute)
   const double t174 = std::sin(q[31]);
   const double t259 = t258 - t257;
   const double t262 = t234 - t259;
@@ -11554,6 +11535,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1007 = t1005 - t279;
   const double t2209 = t1007 * 3.96;
   const double t278 = v[26] * t269;
+  // body 12: acceleration of 'lr_lower_pivot' with gravity
   const double t999 = t174 * t998;
   const double t1000 = t175 * t997;
   const double t1001 = t999 + t1000;
@@ -11584,6 +11566,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2231 = t2230 - t2229;
   const double t2237 = t2234 - t2231;
   const double t2262 = v[3] * t2237;
+  // body 13: Newton-Euler force of 'chassis_floating'
   const double t2227 = v[4] * 776.0;
   const double t2233 = t230 * 1940.0;
   const double t2236 = t2227 + t2233;
@@ -11594,6 +11577,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1276 = t873 * t1251;
   const double t1247 = t581 * 12.0;
   const double t1242 = t872 * (-2.04);
+  // body 1: Newton-Euler force of 'rf_upper_pivot'
   const double t1241 = t868 * (-0.12);
   const double t1243 = t1242 - t1241;
   const double t1250 = t1247 - t1243;
@@ -11615,6 +11599,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1456 = t736 * t1431;
   const double t1427 = t439 * 12.0;
   const double t1422 = t735 * 2.04;
+  // body 3: Newton-Euler force of 'lf_upper_pivot'
   const double t1421 = t731 * (-0.12);
   const double t1423 = t1422 - t1421;
   const double t1430 = t1427 - t1423;
@@ -11635,6 +11620,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2453 = t2376 + t2428;
   const double t1630 = t597 * t1608;
   const double t1600 = t596 * (-2.04);
+  // body 5: Newton-Euler force of 'rr_upper_pivot'
   const double t1599 = t592 * (-0.12);
   const double t1601 = t1600 - t1599;
   const double t1607 = t1247 - t1601;
@@ -11655,6 +11641,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2530 = t2453 + t2505;
   const double t1802 = t456 * t1780;
   const double t1772 = t455 * 2.04;
+  // body 7: Newton-Euler force of 'lr_upper_pivot'
   const double t1771 = t451 * (-0.12);
   const double t1773 = t1772 - t1771;
   const double t1779 = t1427 - t1773;
@@ -11677,6 +11664,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1928 = t393 * t1903;
   const double t1899 = t301 * 18.0;
   const double t1894 = t392 * (-3.96);
+  // body 9: Newton-Euler force of 'rf_lower_pivot'
   const double t1893 = t388 * (-0.54);
   const double t1895 = t1894 - t1893;
   const double t1902 = t1899 - t1895;
@@ -11696,6 +11684,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2016 = t357 * t1991;
   const double t1987 = t260 * 18.0;
   const double t1982 = t356 * 3.96;
+  // body 10: Newton-Euler force of 'lf_lower_pivot'
   const double t1981 = t352 * (-0.54);
   const double t1983 = t1982 - t1981;
   const double t1990 = t1987 - t1983;
@@ -11714,6 +11703,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2695 = t2661 + t2670;
   const double t2098 = t317 * t2076;
   const double t2068 = t316 * (-3.96);
+  // body 11: Newton-Euler force of 'rr_lower_pivot'
   const double t2067 = t312 * (-0.54);
   const double t2069 = t2068 - t2067;
   const double t2075 = t1899 - t2069;
@@ -11732,6 +11722,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2729 = t2695 + t2704;
   const double t2178 = t277 * t2156;
   const double t2148 = t276 * 3.96;
+  // body 12: Newton-Euler force of 'lr_lower_pivot'
   const double t2147 = t272 * (-0.54);
   const double t2149 = t2148 - t2147;
   const double t2155 = t1987 - t2149;
@@ -11759,18 +11750,22 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2286 = t997 * 1940.0;
   const double t2298 = t2260 + t2286;
   const double t2347 = t38 * t2343;
+  // body 1: bias forces of 'rf_upper_pivot'
   const double t2345 = t37 * t2344;
   const double t2348 = t2347 - t2345;
   const double t2375 = t2298 + t2348;
   const double t2424 = t78 * t2420;
+  // body 3: bias forces of 'lf_upper_pivot'
   const double t2422 = t77 * t2421;
   const double t2425 = t2424 - t2422;
   const double t2452 = t2375 + t2425;
   const double t2501 = t118 * t2497;
+  // body 5: bias forces of 'rr_upper_pivot'
   const double t2499 = t117 * t2498;
   const double t2502 = t2501 - t2499;
   const double t2529 = t2452 + t2502;
   const double t2578 = t158 * t2574;
+  // body 7: bias forces of 'lr_upper_pivot'
   const double t2576 = t157 * t2575;
   const double t2579 = t2578 - t2576;
   const double t2606 = t2529 + t2579;
@@ -11841,6 +11836,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1857 = v[5] * t1852;
   const double t1859 = t1858 - t1857;
   const double t426 = v[5] * v[22];
+  // body 8: acceleration of 'rack_slide' with gravity
   const double t1035 = t996 - t426;
   const double t1887 = t1035 * 5.0;
   const double t1890 = t1859 + t1887;
@@ -11859,6 +11855,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1302 = t1301 - t1299;
   const double t1306 = t1303 - t1302;
   const double t1326 = t1271 + t1306;
+  // body 0: bias forces of 'rf_upper_ball'
   const double t2300 = t27 * t1240;
   const double t2301 = t26 * t1239;
   const double t2302 = t25 * t1238;
@@ -11875,6 +11872,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1482 = t1481 - t1479;
   const double t1485 = t1303 - t1482;
   const double t1504 = t1451 + t1485;
+  // body 2: bias forces of 'lf_upper_ball'
   const double t2377 = t67 * t1420;
   const double t2378 = t66 * t1419;
   const double t2379 = t65 * t1418;
@@ -11891,6 +11889,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1656 = t1655 - t1653;
   const double t1659 = t1303 - t1656;
   const double t1676 = t1625 + t1659;
+  // body 4: bias forces of 'rr_upper_ball'
   const double t2454 = t107 * t1598;
   const double t2455 = t106 * t1597;
   const double t2456 = t105 * t1596;
@@ -11907,6 +11906,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1828 = t1827 - t1825;
   const double t1831 = t1303 - t1828;
   const double t1848 = t1797 + t1831;
+  // body 6: bias forces of 'lr_upper_ball'
   const double t2531 = t147 * t1770;
   const double t2532 = t146 * t1769;
   const double t2533 = t145 * t1768;

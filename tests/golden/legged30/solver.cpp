@@ -1487,45 +1487,6 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   (void)D;
   // Joint transforms X_PC and motion subspaces S (constants folded, sin/cos once per joint).
   // body 0: joint transform X_PC of 'neck' (ball)
-  // body 1: joint transform X_PC of 'left_elbow' (revolute)
-  // body 2: joint transform X_PC of 'left_shoulder' (ball)
-  // body 3: joint transform X_PC of 'right_elbow' (revolute)
-  // body 4: joint transform X_PC of 'right_shoulder' (ball)
-  // body 5: joint transform X_PC of 'waist_yaw' (revolute)
-  // body 6: joint transform X_PC of 'left_ankle_roll' (revolute)
-  // body 7: joint transform X_PC of 'left_ankle_pitch' (revolute)
-  // body 8: joint transform X_PC of 'left_knee' (revolute)
-  // body 9: joint transform X_PC of 'left_hip' (ball)
-  // body 10: joint transform X_PC of 'right_ankle_roll' (revolute)
-  // body 11: joint transform X_PC of 'right_ankle_pitch' (revolute)
-  // body 12: joint transform X_PC of 'right_knee' (revolute)
-  // body 13: joint transform X_PC of 'right_hip' (ball)
-  // body 14: joint transform X_PC of 'floating_base' (floating)
-  // Body velocities and velocity-product accelerations, root first.
-  // body 14: velocity and velocity-product acceleration of 'floating_base'
-  // body 13: velocity and velocity-product acceleration of 'right_hip'
-  // body 12: velocity and velocity-product acceleration of 'right_knee'
-  // body 11: velocity and velocity-product acceleration of 'right_ankle_pitch'
-  // body 10: velocity and velocity-product acceleration of 'right_ankle_roll'
-  // body 9: velocity and velocity-product acceleration of 'left_hip'
-  // body 8: velocity and velocity-product acceleration of 'left_knee'
-  // body 7: velocity and velocity-product acceleration of 'left_ankle_pitch'
-  // body 6: velocity and velocity-product acceleration of 'left_ankle_roll'
-  // body 5: velocity and velocity-product acceleration of 'waist_yaw'
-  // body 4: velocity and velocity-product acceleration of 'right_shoulder'
-  // body 3: velocity and velocity-product acceleration of 'right_elbow'
-  // body 2: velocity and velocity-product acceleration of 'left_shoulder'
-  // body 1: velocity and velocity-product acceleration of 'left_elbow'
-  // body 0: velocity and velocity-product acceleration of 'neck'
-  // body 0: articulated inertia of 'neck' (backward sweep)
-  // body 1: articulated inertia of 'left_elbow' (backward sweep)
-  // body 2: articulated inertia of 'left_shoulder' (backward sweep)
-  // body 3: articulated inertia of 'right_elbow' (backward sweep)
-  // body 4: articulated inertia of 'right_shoulder' (backward sweep)
-  // body 5: articulated inertia of 'waist_yaw' (backward sweep)
-  // body 6: articulated inertia of 'left_ankle_roll' (backward sweep)
-  // body 7: articulated inertia of 'left_ankle_pitch' (backward sweep)
-  // body 8: articulated inertia of 'left_knee' (backward sweep)
   const double t4 = q[11] * q[11];
   const double t5 = q[10] * q[10];
   const double t6 = q[9] * q[9];
@@ -1567,10 +1528,12 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t34 = t18 + t21;
   const double t35 = 1.0 - t34;
   g_aba_spill[280] = t35;
+  // body 1: joint transform X_PC of 'left_elbow' (revolute)
   const double t37 = std::sin(q[16]);
   g_aba_spill[270] = t37;
   const double t38 = std::cos(q[16]);
   g_aba_spill[271] = t38;
+  // body 2: joint transform X_PC of 'left_shoulder' (ball)
   const double t44 = q[15] * q[15];
   const double t45 = q[14] * q[14];
   const double t46 = q[13] * q[13];
@@ -1612,10 +1575,12 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t74 = t58 + t61;
   const double t75 = 1.0 - t74;
   g_aba_spill[244] = t75;
+  // body 3: joint transform X_PC of 'right_elbow' (revolute)
   const double t77 = std::sin(q[21]);
   g_aba_spill[234] = t77;
   const double t78 = std::cos(q[21]);
   g_aba_spill[235] = t78;
+  // body 4: joint transform X_PC of 'right_shoulder' (ball)
   const double t84 = q[20] * q[20];
   const double t85 = q[19] * q[19];
   const double t86 = q[18] * q[18];
@@ -1657,22 +1622,27 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t114 = t98 + t101;
   const double t115 = 1.0 - t114;
   g_aba_spill[208] = t115;
+  // body 5: joint transform X_PC of 'waist_yaw' (revolute)
   const double t117 = std::sin(q[7]);
   g_aba_spill[188] = t117;
   const double t118 = std::cos(q[7]);
   g_aba_spill[189] = t118;
+  // body 6: joint transform X_PC of 'left_ankle_roll' (revolute)
   const double t121 = std::sin(q[28]);
   g_aba_spill[183] = t121;
   const double t122 = std::cos(q[28]);
   g_aba_spill[184] = t122;
+  // body 7: joint transform X_PC of 'left_ankle_pitch' (revolute)
   const double t125 = std::sin(q[27]);
   g_aba_spill[170] = t125;
   const double t126 = std::cos(q[27]);
   g_aba_spill[171] = t126;
+  // body 8: joint transform X_PC of 'left_knee' (revolute)
   const double t129 = std::sin(q[26]);
   g_aba_spill[2] = t129;
   const double t130 = std::cos(q[26]);
   g_aba_spill[4] = t130;
+  // body 9: joint transform X_PC of 'left_hip' (ball)
   const double t136 = q[25] * q[25];
   const double t137 = q[24] * q[24];
   const double t138 = q[23] * q[23];
@@ -1714,18 +1684,22 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t166 = t150 + t153;
   const double t167 = 1.0 - t166;
   g_aba_spill[56] = t167;
+  // body 10: joint transform X_PC of 'right_ankle_roll' (revolute)
   const double t169 = std::sin(q[35]);
   g_aba_spill[100] = t169;
   const double t170 = std::cos(q[35]);
   g_aba_spill[99] = t170;
+  // body 11: joint transform X_PC of 'right_ankle_pitch' (revolute)
   const double t173 = std::sin(q[34]);
   g_aba_spill[112] = t173;
   const double t174 = std::cos(q[34]);
   g_aba_spill[111] = t174;
+  // body 12: joint transform X_PC of 'right_knee' (revolute)
   const double t177 = std::sin(q[33]);
   g_aba_spill[123] = t177;
   const double t178 = std::cos(q[33]);
   g_aba_spill[124] = t178;
+  // body 13: joint transform X_PC of 'right_hip' (ball)
   const double t184 = q[32] * q[32];
   const double t185 = q[31] * q[31];
   const double t186 = q[30] * q[30];
@@ -1767,6 +1741,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t214 = t198 + t201;
   const double t215 = 1.0 - t214;
   g_aba_spill[143] = t215;
+  // body 14: joint transform X_PC of 'floating_base' (floating)
   const double t220 = q[6] * q[6];
   const double t221 = q[5] * q[5];
   const double t222 = q[4] * q[4];
@@ -1808,6 +1783,8 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t250 = t234 + t237;
   const double t251 = 1.0 - t250;
   g_aba_spill[152] = t251;
+  // Body velocities and velocity-product accelerations, root first.
+  // body 14: velocity and velocity-product acceleration of 'floating_base'
   const double t257 = t241 * v[0];
   const double t258 = t242 * v[0];
   const double t259 = t243 * v[0];
@@ -1835,6 +1812,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t284 = t271 * v[3];
   const double t285 = t284 - t283;
   g_aba_spill[157] = t285;
+  // body 13: velocity and velocity-product acceleration of 'right_hip'
   const double t292 = v[5] * (-0.085);
   const double t293 = v[3] * (-0.085);
   const double t295 = t269 - t292;
@@ -1896,6 +1874,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t346 = v[25] * t327;
   const double t347 = t346 - t345;
   g_aba_spill[134] = t347;
+  // body 12: velocity and velocity-product acceleration of 'right_knee'
   const double t376 = t328 * (-0.42875);
   const double t378 = t327 * (-0.42875);
   const double t379 = t301 + t376;
@@ -1921,6 +1900,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   g_aba_spill[122] = t399;
   const double t401 = v[27] * t391;
   g_aba_spill[121] = t401;
+  // body 11: velocity and velocity-product acceleration of 'right_ankle_pitch'
   const double t426 = t395 * (-0.4305);
   const double t428 = t391 * (-0.4305);
   const double t429 = t384 + t426;
@@ -1946,6 +1926,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   g_aba_spill[110] = t449;
   const double t451 = v[28] * t441;
   g_aba_spill[109] = t451;
+  // body 10: velocity and velocity-product acceleration of 'right_ankle_roll'
   const double t476 = t169 * t437;
   const double t477 = t170 * t430;
   const double t478 = t476 + t477;
@@ -1967,6 +1948,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   g_aba_spill[92] = t494;
   const double t495 = v[29] * t485;
   g_aba_spill[93] = t495;
+  // body 9: velocity and velocity-product acceleration of 'left_hip'
   const double t518 = v[5] * 0.085;
   const double t519 = v[3] * 0.085;
   const double t521 = t269 - t518;
@@ -2028,6 +2010,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t572 = v[19] * t553;
   const double t573 = t572 - t571;
   g_aba_spill[47] = t573;
+  // body 8: velocity and velocity-product acceleration of 'left_knee'
   const double t602 = t554 * (-0.42875);
   const double t604 = t553 * (-0.42875);
   const double t605 = t527 + t602;
@@ -2053,6 +2036,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   g_aba_spill[158] = t625;
   const double t627 = v[21] * t617;
   g_aba_spill[159] = t627;
+  // body 7: velocity and velocity-product acceleration of 'left_ankle_pitch'
   const double t652 = t621 * (-0.4305);
   const double t654 = t617 * (-0.4305);
   const double t655 = t610 + t652;
@@ -2078,6 +2062,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   g_aba_spill[172] = t675;
   const double t677 = v[22] * t667;
   g_aba_spill[173] = t677;
+  // body 6: velocity and velocity-product acceleration of 'left_ankle_roll'
   const double t702 = t121 * t663;
   const double t703 = t122 * t656;
   const double t704 = t702 + t703;
@@ -2097,6 +2082,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t720 = v[23] * t715;
   const double t721 = v[23] * t711;
   g_aba_spill[185] = t721;
+  // body 5: velocity and velocity-product acceleration of 'waist_yaw'
   const double t742 = v[4] * 0.1;
   const double t744 = v[3] * 0.1;
   const double t745 = t269 + t742;
@@ -2122,6 +2108,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   g_aba_spill[190] = t765;
   const double t766 = v[6] * t756;
   g_aba_spill[191] = t766;
+  // body 4: velocity and velocity-product acceleration of 'right_shoulder'
   const double t783 = t760 * 0.4;
   const double t784 = t761 * (-0.19);
   const double t785 = t784 - t783;
@@ -2187,6 +2174,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t841 = v[15] * t822;
   const double t842 = t841 - t840;
   g_aba_spill[213] = t842;
+  // body 3: velocity and velocity-product acceleration of 'right_elbow'
   const double t885 = t823 * (-0.3255);
   const double t887 = t822 * (-0.3255);
   const double t888 = t796 + t885;
@@ -2209,6 +2197,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t907 = v[17] * t893;
   const double t908 = v[17] * t903;
   const double t910 = v[17] * t900;
+  // body 2: velocity and velocity-product acceleration of 'left_shoulder'
   const double t937 = t761 * 0.19;
   const double t938 = t937 - t783;
   const double t939 = t756 * 0.19;
@@ -2271,6 +2260,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t992 = v[11] * t973;
   const double t993 = t992 - t991;
   g_aba_spill[249] = t993;
+  // body 1: velocity and velocity-product acceleration of 'left_elbow'
   const double t1031 = t974 * (-0.3255);
   const double t1033 = t973 * (-0.3255);
   const double t1034 = t947 + t1031;
@@ -2293,6 +2283,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t1053 = v[13] * t1039;
   const double t1054 = v[13] * t1049;
   const double t1056 = v[13] * t1046;
+  // body 0: velocity and velocity-product acceleration of 'neck'
   const double t1083 = t760 * 0.46;
   const double t1085 = t756 * 0.46;
   const double t1086 = t749 + t1083;
@@ -3051,6 +3042,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t1845 = t1829 + t1838;
   const double t1846 = t1832 + t1841;
   const double t1847 = t1835 + t1844;
+  // body 0: articulated inertia of 'neck' (backward sweep)
   const double t1849 = v[7] * 0.5;
   const double t1850 = tau[7] - t1849;
   const double t1851 = t1850 - t1221;
@@ -3207,6 +3199,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t2002 = t1416 + t1968;
   const double t2003 = t1419 + t1973;
   const double t2004 = t1422 + t1978;
+  // body 1: articulated inertia of 'left_elbow' (backward sweep)
   const double t2006 = v[13] * 0.3;
   const double t2007 = tau[13] - t2006;
   const double t2008 = t2007 - t1266;
@@ -3308,6 +3301,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t2109 = t1284 + t2089;
   const double t2110 = t1287 + t2020;
   const double t2111 = t1290 + t2093;
+  // body 2: articulated inertia of 'left_shoulder' (backward sweep)
   const double t2112 = t2077 / t2080;
   const double t2113 = t2112 * t2112;
   const double t2114 = t2080 * t2113;
@@ -3788,6 +3782,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t2592 = t2002 + t2554;
   const double t2593 = t2003 + t2559;
   const double t2594 = t2004 + t2564;
+  // body 3: articulated inertia of 'right_elbow' (backward sweep)
   const double t2596 = v[17] * 0.3;
   const double t2597 = tau[17] - t2596;
   const double t2598 = t2597 - t1354;
@@ -3889,6 +3884,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t2699 = t1372 + t2679;
   const double t2700 = t1375 + t2610;
   const double t2701 = t1378 + t2683;
+  // body 4: articulated inertia of 'right_shoulder' (backward sweep)
   const double t2702 = t2667 / t2670;
   const double t2703 = t2702 * t2702;
   const double t2704 = t2670 * t2703;
@@ -4378,6 +4374,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t3185 = t2592 + t3147;
   const double t3186 = t2593 + t3152;
   const double t3187 = t2594 + t3157;
+  // body 5: articulated inertia of 'waist_yaw' (backward sweep)
   const double t3188 = 1.0 / t3124;
   g_aba_spill[201] = t3188;
   const double t3190 = v[6] * 2.0;
@@ -4691,6 +4688,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   g_aba_spill[87] = t3516;
   const double t3517 = t1826 + t3324;
   g_aba_spill[88] = t3517;
+  // body 6: articulated inertia of 'left_ankle_roll' (backward sweep)
   const double t3519 = v[23] * 0.5;
   const double t3520 = tau[23] - t3519;
   const double t3521 = t3520 - t1497;
@@ -4796,6 +4794,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t3633 = t1508 + t3541;
   const double t3634 = t1511 + t3619;
   const double t3635 = t1514 + t3622;
+  // body 7: articulated inertia of 'left_ankle_pitch' (backward sweep)
   const double t3636 = 1.0 / t3612;
   g_aba_spill[182] = t3636;
   const double t3638 = v[22] * 0.5;
@@ -5035,6 +5034,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t3895 = t1552 + t3875;
   const double t3896 = t1555 + t3730;
   const double t3897 = t1558 + t3879;
+  // body 8: articulated inertia of 'left_knee' (backward sweep)
   const double t3898 = 1.0 / t3866;
   g_aba_spill[169] = t3898;
   const double t3900 = tau[21] - v[21];
@@ -5535,13 +5535,6 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t1859 = g_aba_spill[290];
   const double t2115 = g_aba_spill[291];
   const double t2705 = g_aba_spill[292];
-  // body 9: articulated inertia of 'left_hip' (backward sweep)
-  // body 10: articulated inertia of 'right_ankle_roll' (backward sweep)
-  // body 11: articulated inertia of 'right_ankle_pitch' (backward sweep)
-  // body 12: articulated inertia of 'right_knee' (backward sweep)
-  // body 13: articulated inertia of 'right_hip' (backward sweep)
-  // body 14: articulated inertia of 'floating_base' (backward sweep)
-  // body 14: acceleration of 'floating_base' (forward sweep)
   const double t7058 = t251 * 9.81;
   const double t7061 = t7058 - t285;
   const double t4135 = t130 * t3961;
@@ -5586,6 +5579,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t4179 = t3935 * 0.42875;
   const double t4183 = t4039 + t4179;
   const double t4189 = t4173 + t4183;
+  // body 9: articulated inertia of 'left_hip' (backward sweep)
   const double t4227 = t4189 / t4194;
   const double t4242 = -t4227;
   const double t4104 = t129 * t3941;
@@ -5825,6 +5819,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t5057 = t170 * t5050;
   const double t5058 = t5055 + t5057;
   const double t5113 = t5058 + 1e-05;
+  // body 11: articulated inertia of 'right_ankle_pitch' (backward sweep)
   const double t5137 = 1.0 / t5113;
   const double t5146 = t5085 * t5137;
   const double t5183 = t5085 * t5146;
@@ -5880,6 +5875,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t5358 = t5158 + t5353;
   const double t5363 = t5347 + t5358;
   const double t5367 = t5363 + 0.16812154214752373;
+  // body 12: articulated inertia of 'right_knee' (backward sweep)
   const double t5399 = 1.0 / t5367;
   const double t5408 = t5343 * t5399;
   const double t5461 = t5343 * t5408;
@@ -6117,6 +6113,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t5680 = t5436 * 0.42875;
   const double t5684 = t5540 + t5680;
   const double t5690 = t5674 + t5684;
+  // body 13: articulated inertia of 'right_hip' (backward sweep)
   const double t5728 = t5690 / t5695;
   const double t5743 = -t5728;
   const double t5441 = t5343 * t5404;
@@ -6527,6 +6524,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t6386 = t6384 + t6385;
   const double t6387 = t6383 + t6386;
   const double t6472 = t4971 + t6387;
+  // body 14: articulated inertia of 'floating_base' (backward sweep)
   const double t6520 = t243 * t6472;
   const double t4877 = t163 * t4841;
   const double t4878 = t162 * t4836;
@@ -7676,6 +7674,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t5027 = t495 * 0.027271739135619748;
   const double t5030 = t5023 - t5027;
   const double t5043 = t1655 + t5030;
+  // body 10: articulated inertia of 'right_ankle_roll' (backward sweep)
   const double t5020 = v[29] * 0.5;
   const double t5021 = tau[29] - t5020;
   const double t5022 = t5021 - t1677;
@@ -7963,6 +7962,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t7057 = t249 * 9.81;
   const double t7060 = t7057 - t282;
   const double t7063 = t6529 * t7060;
+  // body 14: acceleration of 'floating_base' (forward sweep)
   const double t7056 = t248 * 9.81;
   const double t7059 = t7056 - t279;
   const double t7064 = t6524 * t7059;
@@ -8391,20 +8391,6 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t7142 = t7140 + t7141;
   const double t7147 = t251 * t7142;
   const double t7148 = t7131 + t7147;
-  // body 13: acceleration of 'right_hip' (forward sweep)
-  // body 12: acceleration of 'right_knee' (forward sweep)
-  // body 11: acceleration of 'right_ankle_pitch' (forward sweep)
-  // body 10: acceleration of 'right_ankle_roll' (forward sweep)
-  // body 9: acceleration of 'left_hip' (forward sweep)
-  // body 8: acceleration of 'left_knee' (forward sweep)
-  // body 7: acceleration of 'left_ankle_pitch' (forward sweep)
-  // body 6: acceleration of 'left_ankle_roll' (forward sweep)
-  // body 5: acceleration of 'waist_yaw' (forward sweep)
-  // body 4: acceleration of 'right_shoulder' (forward sweep)
-  // body 3: acceleration of 'right_elbow' (forward sweep)
-  // body 2: acceleration of 'left_shoulder' (forward sweep)
-  // body 1: acceleration of 'left_elbow' (forward sweep)
-  // body 0: acceleration of 'neck' (forward sweep)
   const double t7823 = t33 * t7148;
   const double t7111 = t242 * t7108;
   const double t7112 = t7060 + t7111;
@@ -8443,6 +8429,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t7168 = t7166 + t7167;
   const double t7169 = t6996 * t7097;
   const double t7171 = t7168 - t7169;
+  // body 5: acceleration of 'waist_yaw' (forward sweep)
   const double t7571 = t7171 * 0.1;
   const double t7574 = t7144 + t7571;
   const double t7580 = t117 * t7574;
@@ -8463,6 +8450,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t7587 = t117 * t7159;
   const double t7589 = t7586 - t7587;
   const double t7591 = t7589 - t766;
+  // body 0: acceleration of 'neck' (forward sweep)
   const double t7813 = t7591 * 0.46;
   const double t7816 = t7592 + t7813;
   const double t7825 = t26 * t7816;
@@ -8540,7 +8528,9 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t7611 = t7590 * 0.4;
   const double t7615 = t7593 - t7611;
   const double t7719 = t68 * t7615;
+  // body 2: acceleration of 'left_shoulder' (forward sweep)
   const double t7712 = t7607 * 0.19;
+  // body 4: acceleration of 'right_shoulder' (forward sweep)
   const double t7608 = t7591 * 0.4;
   const double t7713 = t7712 - t7608;
   const double t7716 = t7592 - t7713;
@@ -8568,6 +8558,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t7765 = t2132 - t7764;
   const double t7778 = t2121 * t7765;
   const double t7779 = t7749 + t7778;
+  // body 1: acceleration of 'left_elbow' (forward sweep)
   const double t7784 = t7779 * (-0.3255);
   const double t7787 = t7751 + t7784;
   const double t7791 = t38 * t7787;
@@ -8650,6 +8641,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t7664 = t2722 - t7663;
   const double t7677 = t2711 * t7664;
   const double t7678 = t7648 + t7677;
+  // body 3: acceleration of 'right_elbow' (forward sweep)
   const double t7683 = t7678 * (-0.3255);
   const double t7686 = t7650 + t7683;
   const double t7690 = t78 * t7686;
@@ -8706,6 +8698,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t7381 = t7148 + t7378;
   const double t7392 = t167 * t7381;
   const double t7393 = t163 * t7146;
+  // body 9: acceleration of 'left_hip' (forward sweep)
   const double t7377 = t7182 * 0.085;
   const double t7380 = t7144 - t7377;
   const double t7394 = t159 * t7380;
@@ -8785,6 +8778,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t7463 = t4266 * t7453;
   const double t7465 = t7462 - t7463;
   const double t7466 = t7413 + t7465;
+  // body 8: acceleration of 'left_knee' (forward sweep)
   const double t7473 = t7466 * (-0.42875);
   const double t7476 = t7415 + t7473;
   const double t7483 = t129 * t7476;
@@ -8831,11 +8825,13 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t7507 = t3901 - t7506;
   const double t7508 = t3898 * t7507;
   const double t7509 = t7466 + t7508;
+  // body 7: acceleration of 'left_ankle_pitch' (forward sweep)
   const double t7510 = t7509 * (-0.4305);
   const double t7513 = t7494 + t7510;
   const double t7520 = t125 * t7513;
   const double t7521 = t7519 + t7520;
   const double t7532 = t674 + t7521;
+  // body 6: acceleration of 'left_ankle_roll' (forward sweep)
   const double t7545 = t121 * t7532;
   const double t7512 = t7492 * (-0.4305);
   const double t7514 = t7477 - t7512;
@@ -8887,6 +8883,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t7187 = t7148 + t7184;
   const double t7198 = t215 * t7187;
   const double t7199 = t211 * t7146;
+  // body 13: acceleration of 'right_hip' (forward sweep)
   const double t7183 = t7182 * (-0.085);
   const double t7186 = t7144 - t7183;
   const double t7200 = t207 * t7186;
@@ -8966,6 +8963,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t7269 = t5767 * t7259;
   const double t7271 = t7268 - t7269;
   const double t7272 = t7219 + t7271;
+  // body 12: acceleration of 'right_knee' (forward sweep)
   const double t7279 = t7272 * (-0.42875);
   const double t7282 = t7221 + t7279;
   const double t7289 = t177 * t7282;
@@ -9012,11 +9010,13 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t7313 = t5402 - t7312;
   const double t7314 = t5399 * t7313;
   const double t7315 = t7272 + t7314;
+  // body 11: acceleration of 'right_ankle_pitch' (forward sweep)
   const double t7316 = t7315 * (-0.4305);
   const double t7319 = t7300 + t7316;
   const double t7326 = t173 * t7319;
   const double t7327 = t7325 + t7326;
   const double t7338 = t448 + t7327;
+  // body 10: acceleration of 'right_ankle_roll' (forward sweep)
   const double t7351 = t169 * t7338;
   const double t7318 = t7298 * (-0.4305);
   const double t7320 = t7283 - t7318;
@@ -9130,20 +9130,6 @@ int check_articulated(const double* D, const double* qdd) {
 // ---- mass_matrix() and bias_forces(): specialized programs ----
 // mass_matrix(): specialized kinematics and M (eq. 14, 18)
 void mass_matrix_part(const double* q, double* M) {
-  // body 0: joint transform X_PC of 'neck' (ball)
-  // body 1: joint transform X_PC of 'left_elbow' (revolute)
-  // body 2: joint transform X_PC of 'left_shoulder' (ball)
-  // body 3: joint transform X_PC of 'right_elbow' (revolute)
-  // body 4: joint transform X_PC of 'right_shoulder' (ball)
-  // body 5: joint transform X_PC of 'waist_yaw' (revolute)
-  // body 6: joint transform X_PC of 'left_ankle_roll' (revolute)
-  // body 7: joint transform X_PC of 'left_ankle_pitch' (revolute)
-  // body 8: joint transform X_PC of 'left_knee' (revolute)
-  // body 9: joint transform X_PC of 'left_hip' (ball)
-  // body 10: joint transform X_PC of 'right_ankle_roll' (revolute)
-  // body 11: joint transform X_PC of 'right_ankle_pitch' (revolute)
-  // body 12: joint transform X_PC of 'right_knee' (revolute)
-  // body 13: joint transform X_PC of 'right_hip' (ball)
   // body 14: joint transform X_PC of 'floating_base' (floating)
   const double t220 = q[6] * q[6];
   const double t221 = q[5] * q[5];
@@ -9158,35 +9144,6 @@ void mass_matrix_part(const double* q, double* M) {
   const double t230 = q[6] * t227;
   const double t236 = q[4] * t230;
   const double t243 = t232 + t236;
-  // body 0: composite inertia of 'neck' added to its parent
-  // body 1: composite inertia of 'left_elbow' added to its parent
-  // body 2: composite inertia of 'left_shoulder' added to its parent
-  // body 3: composite inertia of 'right_elbow' added to its parent
-  // body 4: composite inertia of 'right_shoulder' added to its parent
-  // body 5: composite inertia of 'waist_yaw' added to its parent
-  // body 6: composite inertia of 'left_ankle_roll' added to its parent
-  // body 7: composite inertia of 'left_ankle_pitch' added to its parent
-  // body 8: composite inertia of 'left_knee' added to its parent
-  // body 9: composite inertia of 'left_hip' added to its parent
-  // body 10: composite inertia of 'right_ankle_roll' added to its parent
-  // body 11: composite inertia of 'right_ankle_pitch' added to its parent
-  // body 12: composite inertia of 'right_knee' added to its parent
-  // body 13: composite inertia of 'right_hip' added to its parent
-  // body 0: columns of M of 'neck' (eq. 18)
-  // body 1: columns of M of 'left_elbow' (eq. 18)
-  // body 2: columns of M of 'left_shoulder' (eq. 18)
-  // body 3: columns of M of 'right_elbow' (eq. 18)
-  // body 4: columns of M of 'right_shoulder' (eq. 18)
-  // body 5: columns of M of 'waist_yaw' (eq. 18)
-  // body 6: columns of M of 'left_ankle_roll' (eq. 18)
-  // body 7: columns of M of 'left_ankle_pitch' (eq. 18)
-  // body 8: columns of M of 'left_knee' (eq. 18)
-  // body 9: columns of M of 'left_hip' (eq. 18)
-  // body 10: columns of M of 'right_ankle_roll' (eq. 18)
-  // body 11: columns of M of 'right_ankle_pitch' (eq. 18)
-  // body 12: columns of M of 'right_knee' (eq. 18)
-  // body 13: columns of M of 'right_hip' (eq. 18)
-  // body 14: columns of M of 'floating_base' (eq. 18)
   const double t2256 = t243 * 70.0;
   const double t2293 = t243 * t2256;
   const double t235 = q[4] * t229;
@@ -9198,6 +9155,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t239 = q[6] * t230;
   const double t240 = t237 + t239;
   const double t241 = 1.0 - t240;
+  // body 14: columns of M of 'floating_base' (eq. 18)
   const double t2254 = t241 * 70.0;
   const double t2295 = t241 * t2254;
   const double t2296 = t2294 + t2295;
@@ -9228,6 +9186,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t2307 = t2303 + t2306;
   M[2] = t2307;
   const double t118 = std::cos(q[7]);
+  // body 0: joint transform X_PC of 'neck' (ball)
   const double t4 = q[11] * q[11];
   const double t5 = q[10] * q[10];
   const double t6 = q[9] * q[9];
@@ -9242,6 +9201,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t15 = q[8] * t12;
   const double t31 = t22 - t15;
   const double t257 = t31 * 0.6804;
+  // body 2: joint transform X_PC of 'left_shoulder' (ball)
   const double t44 = q[15] * q[15];
   const double t45 = q[14] * q[14];
   const double t46 = q[13] * q[13];
@@ -9264,12 +9224,15 @@ void mass_matrix_part(const double* q, double* M) {
   const double t53 = q[14] * t51;
   const double t59 = q[13] * t53;
   const double t68 = t57 + t59;
+  // body 1: joint transform X_PC of 'left_elbow' (revolute)
   const double t37 = std::sin(q[16]);
+  // body 1: composite inertia of 'left_elbow' added to its parent
   const double t316 = t37 * (-0.26834653999999997);
   const double t354 = t68 * t316;
   const double t355 = t353 + t354;
   const double t359 = t355 + 0.665;
   const double t362 = t257 + t359;
+  // body 4: joint transform X_PC of 'right_shoulder' (ball)
   const double t84 = q[20] * q[20];
   const double t85 = q[19] * q[19];
   const double t86 = q[18] * q[18];
@@ -9292,22 +9255,27 @@ void mass_matrix_part(const double* q, double* M) {
   const double t93 = q[19] * t91;
   const double t99 = q[18] * t93;
   const double t108 = t97 + t99;
+  // body 3: joint transform X_PC of 'right_elbow' (revolute)
   const double t77 = std::sin(q[21]);
+  // body 3: composite inertia of 'right_elbow' added to its parent
   const double t444 = t77 * (-0.26834653999999997);
   const double t482 = t108 * t444;
   const double t483 = t481 + t482;
   const double t487 = t483 + (-0.665);
   const double t490 = t362 + t487;
   const double t576 = t118 * t490;
+  // body 5: joint transform X_PC of 'waist_yaw' (revolute)
   const double t117 = std::sin(q[7]);
   const double t13 = q[10] * t11;
   const double t16 = q[8] * t13;
   const double t20 = q[9] * t14;
   const double t27 = t16 + t20;
+  // body 0: composite inertia of 'neck' added to its parent
   const double t256 = t27 * 0.6804;
   const double t56 = q[12] * t53;
   const double t60 = q[13] * t54;
   const double t67 = t56 + t60;
+  // body 2: composite inertia of 'left_shoulder' added to its parent
   const double t350 = t67 * t319;
   const double t61 = q[14] * t53;
   const double t63 = q[15] * t54;
@@ -9319,6 +9287,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t96 = q[17] * t93;
   const double t100 = q[18] * t94;
   const double t107 = t96 + t100;
+  // body 4: composite inertia of 'right_shoulder' added to its parent
   const double t478 = t107 * t447;
   const double t101 = q[19] * t93;
   const double t103 = q[20] * t94;
@@ -9329,6 +9298,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t489 = t361 + t480;
   const double t577 = t117 * t489;
   const double t578 = t576 + t577;
+  // body 9: joint transform X_PC of 'left_hip' (ball)
   const double t136 = q[25] * q[25];
   const double t137 = q[24] * q[24];
   const double t138 = q[23] * q[23];
@@ -9347,13 +9317,16 @@ void mass_matrix_part(const double* q, double* M) {
   const double t122 = std::cos(q[28]);
   const double t628 = t122 * (-0.0386);
   const double t653 = t126 * t628;
+  // body 7: joint transform X_PC of 'left_ankle_pitch' (revolute)
   const double t125 = std::sin(q[27]);
   const double t654 = t125 * 0.06755;
   const double t656 = t653 - t654;
   const double t657 = t656 + (-0.43695749999999994);
   const double t658 = t657 + (-0.6067531575);
   const double t710 = t130 * t658;
+  // body 8: joint transform X_PC of 'left_knee' (revolute)
   const double t129 = std::sin(q[26]);
+  // body 7: composite inertia of 'left_ankle_pitch' added to its parent
   const double t650 = t125 * t628;
   const double t651 = t126 * 0.06755;
   const double t652 = t650 + t651;
@@ -9366,6 +9339,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t145 = q[24] * t143;
   const double t151 = q[23] * t145;
   const double t160 = t149 + t151;
+  // body 8: composite inertia of 'left_knee' added to its parent
   const double t707 = t129 * t658;
   const double t708 = t130 * t652;
   const double t709 = t707 + t708;
@@ -9374,13 +9348,16 @@ void mass_matrix_part(const double* q, double* M) {
   const double t155 = q[25] * t146;
   const double t161 = t150 + t155;
   const double t162 = 1.0 - t161;
+  // body 6: joint transform X_PC of 'left_ankle_roll' (revolute)
   const double t121 = std::sin(q[28]);
+  // body 6: composite inertia of 'left_ankle_roll' added to its parent
   const double t626 = t121 * (-0.0386);
   const double t770 = t162 * t626;
   const double t773 = t772 - t770;
   const double t774 = t769 + t773;
   const double t781 = t774 + 0.9579500000000001;
   const double t783 = t578 + t781;
+  // body 13: joint transform X_PC of 'right_hip' (ball)
   const double t184 = q[32] * q[32];
   const double t185 = q[31] * q[31];
   const double t186 = q[30] * q[30];
@@ -9399,13 +9376,16 @@ void mass_matrix_part(const double* q, double* M) {
   const double t170 = std::cos(q[35]);
   const double t881 = t170 * (-0.0386);
   const double t906 = t174 * t881;
+  // body 11: joint transform X_PC of 'right_ankle_pitch' (revolute)
   const double t173 = std::sin(q[34]);
   const double t907 = t173 * 0.06755;
   const double t909 = t906 - t907;
   const double t910 = t909 + (-0.43695749999999994);
   const double t911 = t910 + (-0.6067531575);
   const double t963 = t178 * t911;
+  // body 12: joint transform X_PC of 'right_knee' (revolute)
   const double t177 = std::sin(q[33]);
+  // body 11: composite inertia of 'right_ankle_pitch' added to its parent
   const double t903 = t173 * t881;
   const double t904 = t174 * 0.06755;
   const double t905 = t903 + t904;
@@ -9418,6 +9398,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t193 = q[31] * t191;
   const double t199 = q[30] * t193;
   const double t208 = t197 + t199;
+  // body 12: composite inertia of 'right_knee' added to its parent
   const double t960 = t177 * t911;
   const double t961 = t178 * t905;
   const double t962 = t960 + t961;
@@ -9426,7 +9407,9 @@ void mass_matrix_part(const double* q, double* M) {
   const double t203 = q[32] * t194;
   const double t209 = t198 + t203;
   const double t210 = 1.0 - t209;
+  // body 10: joint transform X_PC of 'right_ankle_roll' (revolute)
   const double t169 = std::sin(q[35]);
+  // body 10: composite inertia of 'right_ankle_roll' added to its parent
   const double t879 = t169 * (-0.0386);
   const double t1023 = t210 * t879;
   const double t1026 = t1025 - t1023;
@@ -9492,9 +9475,11 @@ void mass_matrix_part(const double* q, double* M) {
   M[3] = t2259;
   const double t2261 = t241 * t1037;
   const double t574 = t118 * t489;
+  // body 5: composite inertia of 'waist_yaw' added to its parent
   const double t572 = t117 * t490;
   const double t575 = t574 - t572;
   const double t159 = t148 + t152;
+  // body 9: composite inertia of 'left_hip' added to its parent
   const double t763 = t159 * t715;
   const double t156 = t153 + t155;
   const double t157 = 1.0 - t156;
@@ -9505,6 +9490,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t768 = t763 + t767;
   const double t782 = t575 + t768;
   const double t207 = t196 + t200;
+  // body 13: composite inertia of 'right_hip' added to its parent
   const double t1016 = t207 * t968;
   const double t204 = t201 + t203;
   const double t205 = 1.0 - t204;
@@ -9522,6 +9508,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t2265 = t2264 - t2263;
   M[5] = t2265;
   const double t1659 = t242 * t575;
+  // body 5: columns of M of 'waist_yaw' (eq. 18)
   const double t1654 = -t576;
   const double t1655 = t1654 - t577;
   const double t1660 = t241 * t1655;
@@ -9538,6 +9525,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t19 = q[9] * t13;
   const double t17 = q[8] * t14;
   const double t26 = t19 - t17;
+  // body 0: columns of M of 'neck' (eq. 18)
   const double t1132 = t26 * (-0.6804);
   const double t1153 = t117 * t1132;
   const double t1154 = t1152 + t1153;
@@ -9570,6 +9558,7 @@ void mass_matrix_part(const double* q, double* M) {
   M[8] = t1212;
   M[9] = 0.0;
   const double t66 = t59 - t57;
+  // body 2: columns of M of 'left_shoulder' (eq. 18)
   const double t1284 = t66 * t319;
   const double t1336 = t117 * t1284;
   const double t1337 = -t1336;
@@ -9644,6 +9633,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t1272 = t1268 + t1271;
   M[13] = t1272;
   const double t106 = t99 - t97;
+  // body 4: columns of M of 'right_shoulder' (eq. 18)
   const double t1498 = t106 * t447;
   const double t1550 = t117 * t1498;
   const double t1551 = -t1550;
@@ -9729,6 +9719,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t1917 = t242 * t1874;
   const double t1867 = t158 * t715;
   const double t1868 = -t1867;
+  // body 9: columns of M of 'left_hip' (eq. 18)
   const double t1865 = t159 * t626;
   const double t1869 = t1868 - t1865;
   const double t1918 = t241 * t1869;
@@ -9765,6 +9756,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t1949 = t1947 + t1948;
   const double t1950 = t1946 + t1949;
   M[20] = t1950;
+  // body 8: columns of M of 'left_knee' (eq. 18)
   const double t1819 = -t707;
   const double t1820 = t1819 - t708;
   const double t1828 = t167 * t1820;
@@ -9785,6 +9777,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t1754 = t126 * (-0.06755);
   const double t1756 = t1754 - t650;
   const double t1762 = t130 * t1756;
+  // body 7: columns of M of 'left_ankle_pitch' (eq. 18)
   const double t1752 = t125 * (-0.06755);
   const double t1753 = t653 + t1752;
   const double t1763 = t129 * t1753;
@@ -9814,6 +9807,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t1686 = t129 * t1670;
   const double t1688 = t1685 - t1686;
   const double t1711 = t167 * t1688;
+  // body 6: columns of M of 'left_ankle_roll' (eq. 18)
   const double t1668 = t122 * 0.0386;
   const double t1712 = t165 * t1668;
   const double t1682 = t129 * t1671;
@@ -9850,6 +9844,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t2210 = t242 * t2167;
   const double t2160 = t206 * t968;
   const double t2161 = -t2160;
+  // body 13: columns of M of 'right_hip' (eq. 18)
   const double t2158 = t207 * t879;
   const double t2162 = t2161 - t2158;
   const double t2211 = t241 * t2162;
@@ -9886,6 +9881,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t2242 = t2240 + t2241;
   const double t2243 = t2239 + t2242;
   M[26] = t2243;
+  // body 12: columns of M of 'right_knee' (eq. 18)
   const double t2112 = -t960;
   const double t2113 = t2112 - t961;
   const double t2121 = t215 * t2113;
@@ -9906,6 +9902,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t2047 = t174 * (-0.06755);
   const double t2049 = t2047 - t903;
   const double t2055 = t178 * t2049;
+  // body 11: columns of M of 'right_ankle_pitch' (eq. 18)
   const double t2045 = t173 * (-0.06755);
   const double t2046 = t906 + t2045;
   const double t2056 = t177 * t2046;
@@ -9935,6 +9932,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t1979 = t177 * t1963;
   const double t1981 = t1978 - t1979;
   const double t2004 = t215 * t1981;
+  // body 10: columns of M of 'right_ankle_roll' (eq. 18)
   const double t1961 = t170 * 0.0386;
   const double t2005 = t213 * t1961;
   const double t1975 = t177 * t1964;
@@ -10874,6 +10872,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t1238 = t1236 * 0.19;
   const double t1237 = t1232 * 0.4;
   const double t1239 = t1238 - t1237;
+  // body 1: columns of M of 'left_elbow' (eq. 18)
   const double t1224 = t325 + 0.06877848281453999;
   const double t1243 = t66 * t1224;
   const double t1246 = t1239 + t1243;
@@ -10925,6 +10924,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t1452 = t1450 * (-0.19);
   const double t1451 = t1446 * 0.4;
   const double t1453 = t1452 - t1451;
+  // body 3: columns of M of 'right_elbow' (eq. 18)
   const double t1438 = t453 + 0.06877848281453999;
   const double t1457 = t106 * t1438;
   const double t1460 = t1453 + t1457;
@@ -12188,19 +12188,6 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t14 = q[11] * t11;
   const double t22 = q[10] * t14;
   const double t33 = t15 + t22;
-  // body 1: joint transform X_PC of 'left_elbow' (revolute)
-  // body 2: joint transform X_PC of 'left_shoulder' (ball)
-  // body 3: joint transform X_PC of 'right_elbow' (revolute)
-  // body 4: joint transform X_PC of 'right_shoulder' (ball)
-  // body 5: joint transform X_PC of 'waist_yaw' (revolute)
-  // body 6: joint transform X_PC of 'left_ankle_roll' (revolute)
-  // body 7: joint transform X_PC of 'left_ankle_pitch' (revolute)
-  // body 8: joint transform X_PC of 'left_knee' (revolute)
-  // body 9: joint transform X_PC of 'left_hip' (ball)
-  // body 10: joint transform X_PC of 'right_ankle_roll' (revolute)
-  // body 11: joint transform X_PC of 'right_ankle_pitch' (revolute)
-  // body 12: joint transform X_PC of 'right_knee' (revolute)
-  // body 13: joint transform X_PC of 'right_hip' (ball)
   // body 14: joint transform X_PC of 'floating_base' (floating)
   const double t220 = q[6] * q[6];
   const double t221 = q[5] * q[5];
@@ -12215,7 +12202,6 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t230 = q[6] * t227;
   const double t236 = q[4] * t230;
   const double t243 = t232 + t236;
-  // body 14: velocity and velocity-product acceleration of 'floating_base'
   const double t259 = t243 * v[0];
   const double t238 = q[5] * t230;
   const double t228 = q[4] * t227;
@@ -12229,20 +12215,6 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t251 = 1.0 - t250;
   const double t272 = t251 * v[2];
   const double t273 = t266 + t272;
-  // body 13: velocity and velocity-product acceleration of 'right_hip'
-  // body 12: velocity and velocity-product acceleration of 'right_knee'
-  // body 11: velocity and velocity-product acceleration of 'right_ankle_pitch'
-  // body 10: velocity and velocity-product acceleration of 'right_ankle_roll'
-  // body 9: velocity and velocity-product acceleration of 'left_hip'
-  // body 8: velocity and velocity-product acceleration of 'left_knee'
-  // body 7: velocity and velocity-product acceleration of 'left_ankle_pitch'
-  // body 6: velocity and velocity-product acceleration of 'left_ankle_roll'
-  // body 5: velocity and velocity-product acceleration of 'waist_yaw'
-  // body 4: velocity and velocity-product acceleration of 'right_shoulder'
-  // body 3: velocity and velocity-product acceleration of 'right_elbow'
-  // body 2: velocity and velocity-product acceleration of 'left_shoulder'
-  // body 1: velocity and velocity-product acceleration of 'left_elbow'
-  // body 0: velocity and velocity-product acceleration of 'neck'
   const double t1093 = t33 * t273;
   const double t18 = q[9] * t12;
   const double t23 = q[11] * t14;
@@ -12264,9 +12236,11 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t744 = v[3] * 0.1;
   const double t746 = t271 - t744;
   const double t750 = t118 * t746;
+  // body 5: joint transform X_PC of 'waist_yaw' (revolute)
   const double t117 = std::sin(q[7]);
   const double t240 = t237 + t239;
   const double t241 = 1.0 - t240;
+  // body 14: velocity and velocity-product acceleration of 'floating_base'
   const double t257 = t241 * v[0];
   const double t244 = t233 + t235;
   const double t261 = t244 * v[1];
@@ -12274,6 +12248,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t248 = t236 - t232;
   const double t268 = t248 * v[2];
   const double t269 = t262 + t268;
+  // body 5: velocity and velocity-product acceleration of 'waist_yaw'
   const double t742 = v[4] * 0.1;
   const double t745 = t269 + t742;
   const double t751 = t117 * t745;
@@ -12294,6 +12269,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t757 = t118 * v[4];
   const double t758 = t117 * v[3];
   const double t760 = t757 - t758;
+  // body 0: velocity and velocity-product acceleration of 'neck'
   const double t1083 = t760 * 0.46;
   const double t1086 = t749 + t1083;
   const double t1095 = t26 * t1086;
@@ -12311,22 +12287,6 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1100 = t27 * t1086;
   const double t1101 = t1099 + t1100;
   const double t1102 = t1098 + t1101;
-  // body 14: acceleration of 'floating_base' with gravity
-  // body 13: acceleration of 'right_hip' with gravity
-  // body 12: acceleration of 'right_knee' with gravity
-  // body 11: acceleration of 'right_ankle_pitch' with gravity
-  // body 10: acceleration of 'right_ankle_roll' with gravity
-  // body 9: acceleration of 'left_hip' with gravity
-  // body 8: acceleration of 'left_knee' with gravity
-  // body 7: acceleration of 'left_ankle_pitch' with gravity
-  // body 6: acceleration of 'left_ankle_roll' with gravity
-  // body 5: acceleration of 'waist_yaw' with gravity
-  // body 4: acceleration of 'right_shoulder' with gravity
-  // body 3: acceleration of 'right_elbow' with gravity
-  // body 2: acceleration of 'left_shoulder' with gravity
-  // body 1: acceleration of 'left_elbow' with gravity
-  // body 0: acceleration of 'neck' with gravity
-  // body 0: Newton-Euler force of 'neck'
   const double t1380 = t1102 * 5.67;
   const double t1401 = t1097 * t1380;
   const double t1379 = t1097 * 5.67;
@@ -12395,6 +12355,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t282 = t281 - t280;
   const double t1184 = t1181 - t282;
   const double t1287 = t118 * t1184;
+  // body 14: acceleration of 'floating_base' with gravity
   const double t1180 = t248 * 9.81;
   const double t278 = t273 * v[4];
   const double t277 = t271 * v[5];
@@ -12408,11 +12369,13 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1356 = t1292 - t1141;
   const double t1363 = t30 * t1356;
   const double t762 = v[6] * t753;
+  // body 5: acceleration of 'waist_yaw' with gravity
   const double t1284 = t117 * t1184;
   const double t1285 = t118 * t1183;
   const double t1286 = t1284 + t1285;
   const double t1291 = t762 + t1286;
   const double t1139 = t766 * 0.46;
+  // body 0: acceleration of 'neck' with gravity
   const double t1355 = t1291 - t1139;
   const double t1364 = t26 * t1355;
   const double t1365 = t1363 + t1364;
@@ -12421,24 +12384,11 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1429 = t1373 * 0.6804;
   const double t1435 = t1432 - t1429;
   const double t1437 = t1418 + t1435;
-  // body 1: Newton-Euler force of 'left_elbow'
-  // body 2: Newton-Euler force of 'left_shoulder'
-  // body 3: Newton-Euler force of 'right_elbow'
-  // body 4: Newton-Euler force of 'right_shoulder'
-  // body 5: Newton-Euler force of 'waist_yaw'
-  // body 6: Newton-Euler force of 'left_ankle_roll'
-  // body 7: Newton-Euler force of 'left_ankle_pitch'
-  // body 8: Newton-Euler force of 'left_knee'
-  // body 9: Newton-Euler force of 'left_hip'
-  // body 10: Newton-Euler force of 'right_ankle_roll'
-  // body 11: Newton-Euler force of 'right_ankle_pitch'
-  // body 12: Newton-Euler force of 'right_knee'
-  // body 13: Newton-Euler force of 'right_hip'
-  // body 14: Newton-Euler force of 'floating_base'
   // body 0: bias forces of 'neck'
   const double t2391 = v[7] * 0.5;
   const double t2392 = t1437 + t2391;
   h[7] = t2392;
+  // body 0: Newton-Euler force of 'neck'
   const double t1375 = t1119 * 0.6804;
   const double t1378 = t1092 * 5.67;
   const double t1381 = t1375 + t1378;
@@ -12495,6 +12445,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2396 = t1439 + t2395;
   h[9] = t2396;
   const double t38 = std::cos(q[16]);
+  // body 2: joint transform X_PC of 'left_shoulder' (ball)
   const double t44 = q[15] * q[15];
   const double t45 = q[14] * q[14];
   const double t46 = q[13] * q[13];
@@ -12522,7 +12473,9 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t56 = q[12] * t53;
   const double t60 = q[13] * t54;
   const double t67 = t56 + t60;
+  // body 2: velocity and velocity-product acceleration of 'left_shoulder'
   const double t937 = t761 * 0.19;
+  // body 4: velocity and velocity-product acceleration of 'right_shoulder'
   const double t783 = t760 * 0.4;
   const double t938 = t937 - t783;
   const double t941 = t749 - t938;
@@ -12530,6 +12483,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t956 = t954 + t955;
   const double t957 = t953 + t956;
   const double t1040 = t38 * t957;
+  // body 1: joint transform X_PC of 'left_elbow' (revolute)
   const double t37 = std::sin(q[16]);
   const double t72 = t60 - t56;
   const double t943 = t72 * t942;
@@ -12553,11 +12507,13 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t966 = t964 + t965;
   const double t967 = t963 + t966;
   const double t974 = v[11] + t967;
+  // body 1: velocity and velocity-product acceleration of 'left_elbow'
   const double t1031 = t974 * (-0.3255);
   const double t1034 = t947 + t1031;
   const double t1041 = t37 * t1034;
   const double t1042 = t1040 + t1041;
   const double t1050 = t974 + v[13];
+  // body 1: Newton-Euler force of 'left_elbow'
   const double t1443 = t1050 * (-0.26834653999999997);
   const double t1038 = t38 * t1034;
   const double t1036 = t37 * t957;
@@ -12613,17 +12569,20 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t976 = v[11] * t957;
   const double t978 = t977 - t976;
   const double t994 = t765 * 0.19;
+  // body 2: acceleration of 'left_shoulder' with gravity
   const double t1325 = t994 + t1185;
   const double t1326 = t72 * t1325;
   const double t845 = t765 * 0.4;
   const double t1294 = t1292 - t845;
   const double t1327 = t68 * t1294;
   const double t843 = t766 * 0.4;
+  // body 4: acceleration of 'right_shoulder' with gravity
   const double t1293 = t1291 - t843;
   const double t1328 = t65 * t1293;
   const double t1329 = t1327 + t1328;
   const double t1330 = t1326 + t1329;
   const double t1341 = t978 + t1330;
+  // body 1: acceleration of 'left_elbow' with gravity
   const double t1344 = t1057 + t1341;
   const double t1348 = t38 * t1344;
   const double t983 = v[11] * t947;
@@ -12744,6 +12703,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2465 = v[10] * 0.5;
   const double t2466 = t2459 + t2465;
   h[10] = t2466;
+  // body 2: Newton-Euler force of 'left_shoulder'
   const double t1511 = t974 * (-0.27815927999999995);
   const double t1514 = t947 * 1.96;
   const double t1517 = t1511 + t1514;
@@ -12804,6 +12764,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2470 = t2461 + t2469;
   h[12] = t2470;
   const double t78 = std::cos(q[21]);
+  // body 4: joint transform X_PC of 'right_shoulder' (ball)
   const double t84 = q[20] * q[20];
   const double t85 = q[19] * q[19];
   const double t86 = q[18] * q[18];
@@ -12836,6 +12797,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t805 = t803 + t804;
   const double t806 = t802 + t805;
   const double t894 = t78 * t806;
+  // body 3: joint transform X_PC of 'right_elbow' (revolute)
   const double t77 = std::sin(q[21]);
   const double t112 = t100 - t96;
   const double t792 = t112 * t791;
@@ -12859,11 +12821,13 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t815 = t813 + t814;
   const double t816 = t812 + t815;
   const double t823 = v[15] + t816;
+  // body 3: velocity and velocity-product acceleration of 'right_elbow'
   const double t885 = t823 * (-0.3255);
   const double t888 = t796 + t885;
   const double t895 = t77 * t888;
   const double t896 = t894 + t895;
   const double t904 = t823 + v[17];
+  // body 3: Newton-Euler force of 'right_elbow'
   const double t1579 = t904 * (-0.26834653999999997);
   const double t892 = t78 * t888;
   const double t890 = t77 * t806;
@@ -12926,6 +12890,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1299 = t1297 + t1298;
   const double t1300 = t1296 + t1299;
   const double t1311 = t827 + t1300;
+  // body 3: acceleration of 'right_elbow' with gravity
   const double t1314 = t911 + t1311;
   const double t1318 = t78 * t1314;
   const double t832 = v[15] * t796;
@@ -13046,6 +13011,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2543 = v[14] * 0.5;
   const double t2544 = t2537 + t2543;
   h[14] = t2544;
+  // body 4: Newton-Euler force of 'right_shoulder'
   const double t1647 = t823 * (-0.27815927999999995);
   const double t1650 = t796 * 1.96;
   const double t1653 = t1647 + t1650;
@@ -13109,6 +13075,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1717 = t756 * 5.4670000000000005;
   const double t1722 = t1719 - t1717;
   const double t1747 = t749 * t1722;
+  // body 5: Newton-Euler force of 'waist_yaw'
   const double t1715 = t760 * 5.4670000000000005;
   const double t1718 = t749 * 24.85;
   const double t1721 = t1715 + t1718;
@@ -13210,9 +13177,11 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2594 = v[6] * 2.0;
   const double t2595 = t2590 + t2594;
   h[6] = t2595;
+  // body 6: joint transform X_PC of 'left_ankle_roll' (revolute)
   const double t121 = std::sin(q[28]);
   const double t126 = std::cos(q[27]);
   const double t130 = std::cos(q[26]);
+  // body 9: joint transform X_PC of 'left_hip' (ball)
   const double t136 = q[25] * q[25];
   const double t137 = q[24] * q[24];
   const double t138 = q[23] * q[23];
@@ -13238,12 +13207,14 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t148 = q[22] * t145;
   const double t152 = q[23] * t146;
   const double t159 = t148 + t152;
+  // body 9: velocity and velocity-product acceleration of 'left_hip'
   const double t518 = v[5] * 0.085;
   const double t521 = t269 - t518;
   const double t535 = t159 * t521;
   const double t536 = t534 + t535;
   const double t537 = t533 + t536;
   const double t611 = t130 * t537;
+  // body 8: joint transform X_PC of 'left_knee' (revolute)
   const double t129 = std::sin(q[26]);
   const double t164 = t152 - t148;
   const double t523 = t164 * t522;
@@ -13267,20 +13238,24 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t546 = t544 + t545;
   const double t547 = t543 + t546;
   const double t554 = v[19] + t547;
+  // body 8: velocity and velocity-product acceleration of 'left_knee'
   const double t602 = t554 * (-0.42875);
   const double t605 = t527 + t602;
   const double t612 = t129 * t605;
   const double t613 = t611 + t612;
   const double t661 = t126 * t613;
+  // body 7: joint transform X_PC of 'left_ankle_pitch' (revolute)
   const double t125 = std::sin(q[27]);
   const double t609 = t130 * t605;
   const double t607 = t129 * t537;
   const double t610 = t609 - t607;
   const double t621 = t554 + v[21];
+  // body 7: velocity and velocity-product acceleration of 'left_ankle_pitch'
   const double t652 = t621 * (-0.4305);
   const double t655 = t610 + t652;
   const double t662 = t125 * t655;
   const double t663 = t661 + t662;
+  // body 6: velocity and velocity-product acceleration of 'left_ankle_roll'
   const double t702 = t121 * t663;
   const double t122 = std::cos(q[28]);
   const double t528 = t165 * t522;
@@ -13411,12 +13386,14 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t557 = v[20] * t532;
   const double t556 = v[19] * t537;
   const double t558 = t557 - t556;
+  // body 9: acceleration of 'left_hip' with gravity
   const double t1235 = t164 * t1185;
   const double t1236 = t160 * t1184;
   const double t1237 = t157 * t1183;
   const double t1238 = t1236 + t1237;
   const double t1239 = t1235 + t1238;
   const double t1250 = t558 + t1239;
+  // body 8: acceleration of 'left_knee' with gravity
   const double t1253 = t628 + t1250;
   const double t1260 = t129 * t1253;
   const double t1261 = t1259 + t1260;
@@ -13428,10 +13405,12 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1258 = t1257 - t1255;
   const double t622 = v[21] * t613;
   const double t1262 = t1258 - t622;
+  // body 7: acceleration of 'left_ankle_pitch' with gravity
   const double t1264 = t678 + t1262;
   const double t1271 = t125 * t1264;
   const double t1272 = t1270 + t1271;
   const double t1274 = t674 + t1272;
+  // body 6: acceleration of 'left_ankle_roll' with gravity
   const double t1275 = t121 * t1274;
   const double t560 = v[18] * t537;
   const double t559 = v[20] * t527;
@@ -13456,6 +13435,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2621 = v[23] * 0.5;
   const double t2622 = t1868 + t2621;
   h[23] = t2622;
+  // body 7: Newton-Euler force of 'left_ankle_pitch'
   const double t1874 = t660 * 0.05;
   const double t1893 = t663 * t1874;
   const double t1876 = t663 * 0.05;
@@ -13469,6 +13449,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1908 = t1894 + t1903;
   const double t1914 = t570 * 1e-05;
   const double t1917 = t1908 + t1914;
+  // body 6: Newton-Euler force of 'left_ankle_roll'
   const double t1782 = t711 * (-0.0386);
   const double t1788 = t660 * 0.965;
   const double t1791 = t1782 + t1788;
@@ -13526,6 +13507,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2643 = v[22] * 0.5;
   const double t2644 = t2638 + t2643;
   h[22] = t2644;
+  // body 8: Newton-Euler force of 'left_knee'
   const double t1922 = t621 * (-0.6067531575);
   const double t1925 = t610 * 3.255;
   const double t1928 = t1922 + t1925;
@@ -13698,6 +13680,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   // body 9: bias forces of 'left_hip'
   const double t2696 = v[18] + t2690;
   h[18] = t2696;
+  // body 9: Newton-Euler force of 'left_hip'
   const double t1990 = t554 * (-1.29954125);
   const double t1993 = t527 * 7.0;
   const double t1996 = t1990 + t1993;
@@ -13755,9 +13738,11 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2692 = t2054 + t2687;
   const double t2698 = v[20] + t2692;
   h[20] = t2698;
+  // body 10: joint transform X_PC of 'right_ankle_roll' (revolute)
   const double t169 = std::sin(q[35]);
   const double t174 = std::cos(q[34]);
   const double t178 = std::cos(q[33]);
+  // body 13: joint transform X_PC of 'right_hip' (ball)
   const double t184 = q[32] * q[32];
   const double t185 = q[31] * q[31];
   const double t186 = q[30] * q[30];
@@ -13783,12 +13768,14 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t196 = q[29] * t193;
   const double t200 = q[30] * t194;
   const double t207 = t196 + t200;
+  // body 13: velocity and velocity-product acceleration of 'right_hip'
   const double t292 = v[5] * (-0.085);
   const double t295 = t269 - t292;
   const double t309 = t207 * t295;
   const double t310 = t308 + t309;
   const double t311 = t307 + t310;
   const double t385 = t178 * t311;
+  // body 12: joint transform X_PC of 'right_knee' (revolute)
   const double t177 = std::sin(q[33]);
   const double t212 = t200 - t196;
   const double t297 = t212 * t296;
@@ -13812,20 +13799,24 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t320 = t318 + t319;
   const double t321 = t317 + t320;
   const double t328 = v[25] + t321;
+  // body 12: velocity and velocity-product acceleration of 'right_knee'
   const double t376 = t328 * (-0.42875);
   const double t379 = t301 + t376;
   const double t386 = t177 * t379;
   const double t387 = t385 + t386;
   const double t435 = t174 * t387;
+  // body 11: joint transform X_PC of 'right_ankle_pitch' (revolute)
   const double t173 = std::sin(q[34]);
   const double t383 = t178 * t379;
   const double t381 = t177 * t311;
   const double t384 = t383 - t381;
   const double t395 = t328 + v[27];
+  // body 11: velocity and velocity-product acceleration of 'right_ankle_pitch'
   const double t426 = t395 * (-0.4305);
   const double t429 = t384 + t426;
   const double t436 = t173 * t429;
   const double t437 = t435 + t436;
+  // body 10: velocity and velocity-product acceleration of 'right_ankle_roll'
   const double t476 = t169 * t437;
   const double t170 = std::cos(q[35]);
   const double t302 = t213 * t296;
@@ -13956,12 +13947,14 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t331 = v[26] * t306;
   const double t330 = v[25] * t311;
   const double t332 = t331 - t330;
+  // body 13: acceleration of 'right_hip' with gravity
   const double t1186 = t212 * t1185;
   const double t1187 = t208 * t1184;
   const double t1188 = t205 * t1183;
   const double t1189 = t1187 + t1188;
   const double t1190 = t1186 + t1189;
   const double t1201 = t332 + t1190;
+  // body 12: acceleration of 'right_knee' with gravity
   const double t1204 = t402 + t1201;
   const double t1211 = t177 * t1204;
   const double t1212 = t1210 + t1211;
@@ -13973,10 +13966,12 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1209 = t1208 - t1206;
   const double t396 = v[27] * t387;
   const double t1213 = t1209 - t396;
+  // body 11: acceleration of 'right_ankle_pitch' with gravity
   const double t1215 = t452 + t1213;
   const double t1222 = t173 * t1215;
   const double t1223 = t1221 + t1222;
   const double t1225 = t448 + t1223;
+  // body 10: acceleration of 'right_ankle_roll' with gravity
   const double t1226 = t169 * t1225;
   const double t334 = v[24] * t311;
   const double t333 = v[26] * t301;
@@ -14001,6 +13996,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2740 = v[29] * 0.5;
   const double t2741 = t2144 + t2740;
   h[29] = t2741;
+  // body 11: Newton-Euler force of 'right_ankle_pitch'
   const double t2150 = t434 * 0.05;
   const double t2169 = t437 * t2150;
   const double t2152 = t437 * 0.05;
@@ -14014,6 +14010,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2184 = t2170 + t2179;
   const double t2190 = t344 * 1e-05;
   const double t2193 = t2184 + t2190;
+  // body 10: Newton-Euler force of 'right_ankle_roll'
   const double t2058 = t485 * (-0.0386);
   const double t2064 = t434 * 0.965;
   const double t2067 = t2058 + t2064;
@@ -14071,6 +14068,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2762 = v[28] * 0.5;
   const double t2763 = t2757 + t2762;
   h[28] = t2763;
+  // body 12: Newton-Euler force of 'right_knee'
   const double t2198 = t395 * (-0.6067531575);
   const double t2201 = t384 * 3.255;
   const double t2204 = t2198 + t2201;
@@ -14243,6 +14241,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   // body 13: bias forces of 'right_hip'
   const double t2815 = v[24] + t2809;
   h[24] = t2815;
+  // body 13: Newton-Euler force of 'right_hip'
   const double t2266 = t328 * (-1.29954125);
   const double t2269 = t301 * 7.0;
   const double t2272 = t2266 + t2269;
@@ -14304,6 +14303,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2336 = v[3] * 0.497;
   const double t2341 = t2338 - t2336;
   const double t2357 = v[3] * t2341;
+  // body 14: Newton-Euler force of 'floating_base'
   const double t2334 = v[4] * 0.497;
   const double t2337 = t269 * 9.94;
   const double t2340 = t2334 + t2337;
