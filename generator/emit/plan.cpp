@@ -57,8 +57,6 @@ Plan plan_solver(const topology::Tree& t, const Options& options) {
                                               : Shape::kTable;
   p.unrolled = p.shape == Shape::kUnrolled;
   p.fused = p.unrolled && p.products <= kMaxFusedGatherProducts;
-  p.gravity = !options.gravity.isZero(0.0);
-  for (const topology::Body& b : t.bodies) p.damping = p.damping || b.damping != 0.0;
   return p;
 }
 

@@ -43,8 +43,6 @@ struct Plan {
   /// Step 1 writes Dinv = 1 / pivot (else, with --divide, the pivots):
   /// decided once Step 3's shape is known (set_step3_shape).
   bool write_dinv = true;
-  bool gravity = false;  ///< gravity not zero: gravity terms in h
-  bool damping = false;  ///< some joint has damping
 };
 
 /// The plan of Steps 1, 2 and 4 (kMaxUnrolledProducts, kMinDenseSupernode,

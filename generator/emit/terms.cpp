@@ -33,18 +33,22 @@ std::string runtime_flags(const topology::Tree& t, const Options& options) {
   return fmt::format("<{}, {}>", options.gravity.isZero(0.0) ? "false" : "true", has_damping(t) ? "true" : "false");
 }
 
-// The runtime's route: generic kinematics, M by eq. (14)/(18), h by
-// Newton-Euler, then the generated Steps 1, 2, 4 (solve_tree).
-std::string runtime_fd_body(const topology::Tree& t, const Options& options) {
+// The runtime's terms: generic kinematics, M by eq. (14)/(18) into g_L,
+// Q = tau - h by Newton-Euler into g_z.
+std::string runtime_terms_text(const topology::Tree& t, const Options& options) {
   return fmt::format(
       "  jr::kinematics(kModel, g_bodies, q);\n"
       "  // M, eq. (18), by the composite-rigid-body recursion, eq. (14).\n"
       "  jr::mass_matrix_packed(kModel, g_bodies, g_L);\n"
       "  // Q = tau - h ({}).\n"
       "  jr::bias_forces{}(kModel, g_bodies, v, g_z);\n"
-      "  for (std::int32_t j = 0; j < nv; ++j) g_z[j] = tau[kDofUser[j]] - g_z[j];\n"
-      "  const int status = solve_tree(nullptr, qdd);\n",
+      "  for (std::int32_t j = 0; j < nv; ++j) g_z[j] = tau[kDofUser[j]] - g_z[j];\n",
       bias_terms(t, options), runtime_flags(t, options));
+}
+
+// The runtime's route of a tree: its terms, then the generated Steps 1, 2, 4.
+std::string runtime_fd_body(const topology::Tree& t, const Options& options) {
+  return runtime_terms_text(t, options) + "  const int status = solve_tree(nullptr, qdd);\n";
 }
 
 // One specialized program: its emitted functions, a driver `name` calling
@@ -385,9 +389,6 @@ PieceTerms piece_terms(const topology::Tree& t, const Options& options) {
   return pieces;
 }
 
-}  // namespace jrgen::emit
-
-namespace jrgen::emit {
 
 TermsBlock loop_terms(const topology::Tree& t, const Options& options, long long solve_flops) {
   const long long limit = terms_limit();
@@ -425,17 +426,10 @@ TermsBlock loop_terms(const topology::Tree& t, const Options& options, long long
     return block;
   }
   if (!fits(b, limit)) {
-    block.fd_body = fmt::format(
-        "  jr::kinematics(kModel, g_bodies, q);\n"
-        "  // M, eq. (18), by the composite-rigid-body recursion, eq. (14).\n"
-        "  jr::mass_matrix_packed(kModel, g_bodies, g_L);\n"
-        "  // Q = tau - h ({}).\n"
-        "  jr::bias_forces{}(kModel, g_bodies, v, g_z);\n"
-        "  for (std::int32_t j = 0; j < nv; ++j) g_z[j] = tau[kDofUser[j]] - g_z[j];\n"
-        "  // Phiq (packed, Lemma 3 pattern) and gamma = -(Phiq v)_q v.\n"
-        "  jr::constraint_terms(kModel, kConstraints, g_bodies, g_motion, q, v, nullptr, g_T, g_gamma);\n"
-        "  const int status = solve_closed(nullptr, qdd, lambda);\n",
-        bias_terms(t, options), runtime_flags(t, options));
+    block.fd_body = runtime_terms_text(t, options) +
+                    "  // Phiq (packed, Lemma 3 pattern) and gamma = -(Phiq v)_q v.\n"
+                    "  jr::constraint_terms(kModel, kConstraints, g_bodies, g_motion, q, v, nullptr, g_T, g_gamma);\n"
+                    "  const int status = solve_closed(nullptr, qdd, lambda);\n";
     block.summary = fmt::format(
         "forward_dynamics: the runtime's kinematics, M, h, Phiq and gamma, then Steps 1-4 (the specialized "
         "program would hold {}, the limit is {})",
