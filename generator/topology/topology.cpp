@@ -49,6 +49,31 @@ struct MassAccumulator {
   }
 };
 
+// Entries below the rounding of their quantity, set to zero: |x| <= u max|x|
+// with u = 2^-53, the unit roundoff.  URDF exporters write such residues
+// ("0 1 6.12323e-17" for an axis, rpy 1.11022e-16): they perturb every
+// product they enter by less than its own rounding error (|a . x - a' . x| <=
+// u |a| |x|, the bound of the dot product itself), but they turn an
+// axis-aligned joint or an identity rotation into a general one, which costs
+// the specialized code its folding (emit/kinematics.cpp, docs/specialization.md).
+template <typename Derived>
+void snap_rounding_residues(Eigen::MatrixBase<Derived>& x, double scale) {
+  const double below = std::ldexp(scale, -53);
+  if (!std::isfinite(below)) return;  // an overflowing quantity is reported, not snapped
+  for (Eigen::Index i = 0; i < x.size(); ++i)
+    if (std::abs(x(i)) <= below) x(i) = 0.0;
+}
+
+void snap_rounding_residues(ir::Pose& X) {
+  snap_rounding_residues(X.R, 1.0);  // orthonormal: every entry's scale is 1
+  snap_rounding_residues(X.p, X.p.cwiseAbs().maxCoeff());
+}
+
+void snap_rounding_residues(ir::Inertial& in) {
+  snap_rounding_residues(in.com, in.com.cwiseAbs().maxCoeff());
+  snap_rounding_residues(in.I_com, in.I_com.cwiseAbs().maxCoeff());
+}
+
 // Planar in-plane directions, cyclic from the normal (INTERFACE.md section 3).
 void planar_directions(const Eigen::Vector3d& n, Eigen::Vector3d& e1, Eigen::Vector3d& e2) {
   int axis = 0;
@@ -172,6 +197,8 @@ Tree build_tree(const ir::Robot& robot, const MassBounds& bounds) {
       v_user += body.nv;
       body.X_PJ = compose(parent.X_BL, joint.origin);
       body.axis = joint.axis;
+      snap_rounding_residues(body.X_PJ);
+      snap_rounding_residues(body.axis, 1.0);
       if (joint.type == ir::JointType::Planar) planar_directions(joint.axis, body.e1, body.e2);
       body.damping = joint.damping;
       child.body_lem = body.joint_user;
@@ -190,6 +217,7 @@ Tree build_tree(const ir::Robot& robot, const MassBounds& bounds) {
   for (int b = 0; b < nb; ++b) {
     Body& body = user_bodies[b];
     body.inertial = mass[b].to_inertial();
+    snap_rounding_residues(body.inertial);
     check_finite_body(robot, body, tree.links);
     const std::string raised = raise_to_bounds(body.inertial, bounds);
     if (!raised.empty()) {
@@ -298,6 +326,10 @@ Tree build_tree(const ir::Robot& robot, const MassBounds& bounds) {
     cut.X_BlF = compose(l.X_BL, ic.frame_l);
     cut.axis = ic.axis;
     cut.child_axis = ic.child_axis;
+    snap_rounding_residues(cut.X_BkF);
+    snap_rounding_residues(cut.X_BlF);
+    snap_rounding_residues(cut.axis, 1.0);
+    snap_rounding_residues(cut.child_axis, 1.0);
     cut.distance = ic.distance;
     cut.distance_given = ic.distance_given;
     if (!is_finite(cut.X_BkF) || !is_finite(cut.X_BlF))

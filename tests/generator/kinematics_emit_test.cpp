@@ -102,6 +102,38 @@ TEST(KinematicsEmitFolding, AxisAlignedRevoluteCostsOnlyItsSineAndCosine) {
   EXPECT_EQ(e.total.add + e.total.mul + e.total.div, 0) << e.definitions;
 }
 
+// The kinematics of one revolute joint with the given <axis xyz> and <origin
+// rpy>: its operation count.
+Program::Emitted one_joint_kinematics(const std::string& axis, const std::string& rpy) {
+  const ModelCase c{"one_joint", R"(<robot name="one">
+  <link name="base"/><link name="a"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="j" type="revolute"><parent link="base"/><child link="a"/><origin rpy=")" + rpy +
+                                       R"("/><axis xyz=")" + axis + R"("/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+</robot>)", ""};
+  const jrgen::topology::Tree tree = jrgen::topology::build_tree(jrgen::testing::read_model_case(c));
+  Program program("const double* q");
+  program.begin_function("kinematics", "test");
+  program.begin_block("kinematics");
+  const auto frames = jrgen::emit::joint_frames(program, tree);
+  for (int k = 0; k < 9; ++k) program.output("R[" + std::to_string(k) + "]", frames[0].R[k]);
+  return program.emit();
+}
+
+// Exporters' residues below the unit roundoff (iCub's "0 1 6.12323e-17",
+// rpy 1.11022e-16 = 2^-53 rounded down) fold like exact zeros
+// (topology.cpp, snap_rounding_residues); a residue one ulp above 2^-53, or a
+// small but real angle, does not.
+TEST(KinematicsEmitFolding, ResiduesBelowRoundoffFoldRealSmallValuesDoNot) {
+  const auto snapped = one_joint_kinematics("0 1 6.12323e-17", "1.11022e-16 0 0");
+  EXPECT_EQ(snapped.total.trig, 2) << snapped.definitions;
+  EXPECT_EQ(snapped.total.add + snapped.total.mul, 0) << snapped.definitions;
+  const auto kept_axis = one_joint_kinematics("0 1 1.1102230246251568e-16", "0 0 0");
+  EXPECT_GT(kept_axis.total.add + kept_axis.total.mul, 0) << kept_axis.definitions;
+  const auto kept_angle = one_joint_kinematics("0 1 0", "1e-12 0 0");
+  EXPECT_GT(kept_angle.total.add + kept_angle.total.mul, 0) << kept_angle.definitions;
+}
+
 std::vector<ModelCase> cases() {
   std::vector<ModelCase> out = jrgen::testing::project_tree_models();
   for (const ModelCase& c : jrgen::testing::external_models()) out.push_back(c);

@@ -65,7 +65,7 @@ constexpr jr::BodyModel kBodies[7] = {
 {"joint_5", jr::JointKind::kRevolute, 3, 4, 4, 2, 1,
  {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0},
  {0.0, 0.0, 0.21}, {0.0, 0.0, 1.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0},
- 1.7, {0.0, 0.021, 0.07599999999999998}, {0.020000000000000007, 0.018000000000000002, 0.005, 0.0, 0.0, -4.336808689942018e-19}, 0.5},
+ 1.7, {0.0, 0.021, 0.07599999999999998}, {0.020000000000000007, 0.018000000000000002, 0.005, 0.0, 0.0, 0.0}, 0.5},
 // 3: joint 'joint_4' (revolute), parent 4
 {"joint_4", jr::JointKind::kRevolute, 4, 3, 3, 3, 1,
  {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0},
@@ -564,7 +564,7 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t330 = t329 + 0.005749700000000001;
   L[13] = t330;
   const double t320 = t302 - 0.0002052;
-  const double t321 = t320 + (-0.0027132);
+  const double t321 = t320 + (-0.0027131999999999994);
   const double t357 = t10 * t321;
   const double t296 = t5 * 0.005980648000000002;
   const double t312 = t6 * t296;
@@ -1179,7 +1179,7 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t1056 = t135 * t1019;
   const double t1058 = t1057 - t1056;
   const double t1026 = t131 * 0.12919999999999998;
-  const double t1030 = t143 * (-0.0027132);
+  const double t1030 = t143 * (-0.0027131999999999994);
   const double t1031 = t142 * 0.027819199999999995;
   const double t1032 = t1030 + t1031;
   const double t1037 = t1026 + t1032;
@@ -1194,7 +1194,7 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t1067 = t1066 - t1065;
   const double t1070 = t1058 + t1067;
   const double t1093 = t120 * 0.005749700000000001;
-  const double t1094 = t170 * (-0.0027132);
+  const double t1094 = t170 * (-0.0027131999999999994);
   const double t1095 = t1093 + t1094;
   const double t1087 = t825 * 0.0357;
   const double t1098 = t1095 - t1087;
@@ -1358,7 +1358,7 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t1055 = t1054 - t1052;
   const double t1063 = t143 * t1036;
   const double t1033 = t143 * 0.005749700000000001;
-  const double t1034 = t142 * (-0.0027132);
+  const double t1034 = t142 * (-0.0027131999999999994);
   const double t1035 = t1033 + t1034;
   const double t1027 = t131 * 0.0357;
   const double t1038 = t1035 - t1027;
@@ -1366,7 +1366,7 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   const double t1064 = t1063 - t1062;
   const double t1069 = t1055 + t1064;
   const double t1086 = t825 * 0.12919999999999998;
-  const double t1090 = t120 * (-0.0027132);
+  const double t1090 = t120 * (-0.0027131999999999994);
   const double t1091 = t170 * 0.027819199999999995;
   const double t1092 = t1090 + t1091;
   const double t1097 = t1086 + t1092;
@@ -1735,7 +1735,7 @@ void mass_matrix_part(const double* q, double* M) {
   const double t54 = t5 * t40;
   const double t56 = t53 - t54;
   const double t74 = t56 - 0.0002052;
-  const double t75 = t74 + (-0.0027132);
+  const double t75 = t74 + (-0.0027131999999999994);
   const double t103 = t9 * t75;
   const double t106 = t105 - t103;
   const double t126 = t88 * 0.21;
@@ -2447,7 +2447,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t536 = t135 * t499;
   const double t538 = t537 - t536;
   const double t506 = t131 * 0.12919999999999998;
-  const double t510 = t143 * (-0.0027132);
+  const double t510 = t143 * (-0.0027131999999999994);
   const double t511 = t142 * 0.027819199999999995;
   const double t512 = t510 + t511;
   const double t517 = t506 + t512;
@@ -2462,7 +2462,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t547 = t546 - t545;
   const double t550 = t538 + t547;
   const double t573 = t120 * 0.005749700000000001;
-  const double t574 = t170 * (-0.0027132);
+  const double t574 = t170 * (-0.0027131999999999994);
   const double t575 = t573 + t574;
   const double t567 = t305 * 0.0357;
   const double t578 = t575 - t567;
@@ -2625,7 +2625,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t535 = t534 - t532;
   const double t543 = t143 * t516;
   const double t513 = t143 * 0.005749700000000001;
-  const double t514 = t142 * (-0.0027132);
+  const double t514 = t142 * (-0.0027131999999999994);
   const double t515 = t513 + t514;
   const double t507 = t131 * 0.0357;
   const double t518 = t515 - t507;
@@ -2633,7 +2633,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t544 = t543 - t542;
   const double t549 = t535 + t544;
   const double t566 = t305 * 0.12919999999999998;
-  const double t570 = t120 * (-0.0027132);
+  const double t570 = t120 * (-0.0027131999999999994);
   const double t571 = t170 * 0.027819199999999995;
   const double t572 = t570 + t571;
   const double t577 = t566 + t572;

@@ -127,22 +127,22 @@ constexpr jr::BodyModel kBodies[14] = {
 {"rf_lower_pivot", jr::JointKind::kRevolute, 13, 28, 23, 17, 1,
  {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0},
  {1.65, -0.36, -0.14}, {1.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0},
- 18.0, {0.0, -0.22, -0.030000000000000002}, {0.30000000000000004, 0.31335, 0.59415, 0.0, 0.0, 1.3877787807814457e-17}, 300.0},
+ 18.0, {0.0, -0.22, -0.030000000000000002}, {0.30000000000000004, 0.31335, 0.59415, 0.0, 0.0, 0.0}, 300.0},
 // 10: joint 'lf_lower_pivot' (revolute), parent 13
 {"lf_lower_pivot", jr::JointKind::kRevolute, 13, 29, 24, 18, 1,
  {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0},
  {1.65, 0.36, -0.14}, {1.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0},
- 18.0, {0.0, 0.22, -0.030000000000000002}, {0.30000000000000004, 0.31335, 0.59415, 0.0, 0.0, -1.3877787807814457e-17}, 300.0},
+ 18.0, {0.0, 0.22, -0.030000000000000002}, {0.30000000000000004, 0.31335, 0.59415, 0.0, 0.0, 0.0}, 300.0},
 // 11: joint 'rr_lower_pivot' (revolute), parent 13
 {"rr_lower_pivot", jr::JointKind::kRevolute, 13, 30, 25, 19, 1,
  {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0},
  {-1.65, -0.36, -0.14}, {1.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0},
- 18.0, {0.0, -0.22, -0.030000000000000002}, {0.30000000000000004, 0.31335, 0.59415, 0.0, 0.0, 1.3877787807814457e-17}, 300.0},
+ 18.0, {0.0, -0.22, -0.030000000000000002}, {0.30000000000000004, 0.31335, 0.59415, 0.0, 0.0, 0.0}, 300.0},
 // 12: joint 'lr_lower_pivot' (revolute), parent 13
 {"lr_lower_pivot", jr::JointKind::kRevolute, 13, 31, 26, 20, 1,
  {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0},
  {-1.65, 0.36, -0.14}, {1.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0},
- 18.0, {0.0, 0.22, -0.030000000000000002}, {0.30000000000000004, 0.31335, 0.59415, 0.0, 0.0, -1.3877787807814457e-17}, 300.0},
+ 18.0, {0.0, 0.22, -0.030000000000000002}, {0.30000000000000004, 0.31335, 0.59415, 0.0, 0.0, 0.0}, 300.0},
 // 13: joint 'chassis_floating' (floating), parent base
 {"chassis_floating", jr::JointKind::kFloating, -1, 0, 0, 21, 6,
  {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0},
@@ -2559,11 +2559,11 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t1485 = t301 * (-0.54);
   const double t1486 = t301 * 3.96;
   const double t1487 = t393 * 1.1874;
-  const double t1488 = t392 * (-0.1188);
+  const double t1488 = t392 * (-0.11880000000000002);
   const double t1489 = t388 * 0.32955;
   const double t1490 = t1488 + t1489;
   const double t1491 = t392 * 1.46535;
-  const double t1492 = t388 * (-0.1188);
+  const double t1492 = t388 * (-0.11880000000000002);
   const double t1493 = t1491 + t1492;
   const double t1494 = t1484 + t1487;
   const double t1495 = t1485 + t1490;
@@ -2621,11 +2621,11 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t1541 = t260 * (-0.54);
   const double t1542 = t260 * (-3.96);
   const double t1543 = t357 * 1.1874;
-  const double t1544 = t356 * 0.1188;
+  const double t1544 = t356 * 0.11880000000000002;
   const double t1545 = t352 * 0.32955;
   const double t1546 = t1544 + t1545;
   const double t1547 = t356 * 1.46535;
-  const double t1548 = t352 * 0.1188;
+  const double t1548 = t352 * 0.11880000000000002;
   const double t1549 = t1547 + t1548;
   const double t1550 = t1540 + t1543;
   const double t1551 = t1541 + t1546;
@@ -2680,11 +2680,11 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t1594 = t305 * 0.54;
   const double t1595 = t1593 + t1594;
   const double t1596 = t317 * 1.1874;
-  const double t1597 = t316 * (-0.1188);
+  const double t1597 = t316 * (-0.11880000000000002);
   const double t1598 = t312 * 0.32955;
   const double t1599 = t1597 + t1598;
   const double t1600 = t316 * 1.46535;
-  const double t1601 = t312 * (-0.1188);
+  const double t1601 = t312 * (-0.11880000000000002);
   const double t1602 = t1600 + t1601;
   const double t1603 = t1595 + t1596;
   const double t1604 = t1485 + t1599;
@@ -2739,11 +2739,11 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
   const double t1647 = t265 * 0.54;
   const double t1648 = t1646 + t1647;
   const double t1649 = t277 * 1.1874;
-  const double t1650 = t276 * 0.1188;
+  const double t1650 = t276 * 0.11880000000000002;
   const double t1651 = t272 * 0.32955;
   const double t1652 = t1650 + t1651;
   const double t1653 = t276 * 1.46535;
-  const double t1654 = t272 * 0.1188;
+  const double t1654 = t272 * 0.11880000000000002;
   const double t1655 = t1653 + t1654;
   const double t1656 = t1648 + t1649;
   const double t1657 = t1541 + t1652;
@@ -5704,10 +5704,10 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t4329 = t4318 * (-0.14);
   const double t4330 = t4328 + t4329;
   const double t4251 = t163 * 0.32955;
-  const double t4249 = t162 * (-0.1188);
+  const double t4249 = t162 * (-0.11880000000000002);
   const double t4252 = t4251 - t4249;
   const double t4263 = t163 * t4252;
-  const double t4255 = t163 * (-0.1188);
+  const double t4255 = t163 * (-0.11880000000000002);
   const double t4253 = t162 * 1.46535;
   const double t4256 = t4255 - t4253;
   const double t4261 = t162 * t4256;
@@ -5720,10 +5720,10 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t4523 = t4512 * (-0.14);
   const double t4524 = t4522 + t4523;
   const double t4445 = t167 * 0.32955;
-  const double t4443 = t166 * 0.1188;
+  const double t4443 = t166 * 0.11880000000000002;
   const double t4446 = t4445 - t4443;
   const double t4457 = t167 * t4446;
-  const double t4449 = t167 * 0.1188;
+  const double t4449 = t167 * 0.11880000000000002;
   const double t4447 = t166 * 1.46535;
   const double t4450 = t4449 - t4447;
   const double t4455 = t166 * t4450;
@@ -5736,10 +5736,10 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t4717 = t4706 * (-0.14);
   const double t4718 = t4716 + t4717;
   const double t4639 = t171 * 0.32955;
-  const double t4637 = t170 * (-0.1188);
+  const double t4637 = t170 * (-0.11880000000000002);
   const double t4640 = t4639 - t4637;
   const double t4651 = t171 * t4640;
-  const double t4643 = t171 * (-0.1188);
+  const double t4643 = t171 * (-0.11880000000000002);
   const double t4641 = t170 * 1.46535;
   const double t4644 = t4643 - t4641;
   const double t4649 = t170 * t4644;
@@ -5752,10 +5752,10 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t4911 = t4900 * (-0.14);
   const double t4912 = t4910 + t4911;
   const double t4833 = t175 * 0.32955;
-  const double t4831 = t174 * 0.1188;
+  const double t4831 = t174 * 0.11880000000000002;
   const double t4834 = t4833 - t4831;
   const double t4845 = t175 * t4834;
-  const double t4837 = t175 * 0.1188;
+  const double t4837 = t175 * 0.11880000000000002;
   const double t4835 = t174 * 1.46535;
   const double t4838 = t4837 - t4835;
   const double t4843 = t174 * t4838;
@@ -6442,11 +6442,11 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t4387 = t4383 * 1.65;
   const double t4389 = t4388 - t4387;
   const double t4233 = t397 * 0.32955;
-  const double t4231 = t398 * (-0.1188);
+  const double t4231 = t398 * (-0.11880000000000002);
   const double t4234 = t4233 - t4231;
   const double t4239 = t1525 + t4234;
   const double t4395 = t163 * t4239;
-  const double t4237 = t397 * (-0.1188);
+  const double t4237 = t397 * (-0.11880000000000002);
   const double t4235 = t398 * 1.46535;
   const double t4238 = t4237 - t4235;
   const double t4240 = t1526 + t4238;
@@ -6458,11 +6458,11 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t4581 = t4577 * 1.65;
   const double t4583 = t4582 - t4581;
   const double t4427 = t361 * 0.32955;
-  const double t4425 = t362 * 0.1188;
+  const double t4425 = t362 * 0.11880000000000002;
   const double t4428 = t4427 - t4425;
   const double t4433 = t1581 + t4428;
   const double t4589 = t167 * t4433;
-  const double t4431 = t361 * 0.1188;
+  const double t4431 = t361 * 0.11880000000000002;
   const double t4429 = t362 * 1.46535;
   const double t4432 = t4431 - t4429;
   const double t4434 = t1582 + t4432;
@@ -6474,11 +6474,11 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t4775 = t4771 * (-1.65);
   const double t4777 = t4776 - t4775;
   const double t4621 = t321 * 0.32955;
-  const double t4619 = t322 * (-0.1188);
+  const double t4619 = t322 * (-0.11880000000000002);
   const double t4622 = t4621 - t4619;
   const double t4627 = t1634 + t4622;
   const double t4783 = t171 * t4627;
-  const double t4625 = t321 * (-0.1188);
+  const double t4625 = t321 * (-0.11880000000000002);
   const double t4623 = t322 * 1.46535;
   const double t4626 = t4625 - t4623;
   const double t4628 = t1635 + t4626;
@@ -6490,11 +6490,11 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   const double t4969 = t4965 * (-1.65);
   const double t4971 = t4970 - t4969;
   const double t4815 = t281 * 0.32955;
-  const double t4813 = t282 * 0.1188;
+  const double t4813 = t282 * 0.11880000000000002;
   const double t4816 = t4815 - t4813;
   const double t4821 = t1687 + t4816;
   const double t4977 = t175 * t4821;
-  const double t4819 = t281 * 0.1188;
+  const double t4819 = t281 * 0.11880000000000002;
   const double t4817 = t282 * 1.46535;
   const double t4820 = t4819 - t4817;
   const double t4822 = t1688 + t4820;
@@ -8897,10 +8897,10 @@ void mass_matrix_part(const double* q, double* M) {
   const double t921 = t920 - t910;
   const double t922 = t888 + t921;
   const double t942 = t163 * 0.32955;
-  const double t940 = t162 * (-0.1188);
+  const double t940 = t162 * (-0.11880000000000002);
   const double t943 = t942 - t940;
   const double t968 = t163 * t943;
-  const double t946 = t163 * (-0.1188);
+  const double t946 = t163 * (-0.11880000000000002);
   const double t944 = t162 * 1.46535;
   const double t947 = t946 - t944;
   const double t966 = t162 * t947;
@@ -8911,10 +8911,10 @@ void mass_matrix_part(const double* q, double* M) {
   const double t973 = t972 - t953;
   const double t974 = t922 + t973;
   const double t1006 = t167 * 0.32955;
-  const double t1004 = t166 * 0.1188;
+  const double t1004 = t166 * 0.11880000000000002;
   const double t1007 = t1006 - t1004;
   const double t1032 = t167 * t1007;
-  const double t1010 = t167 * 0.1188;
+  const double t1010 = t167 * 0.11880000000000002;
   const double t1008 = t166 * 1.46535;
   const double t1011 = t1010 - t1008;
   const double t1030 = t166 * t1011;
@@ -8925,10 +8925,10 @@ void mass_matrix_part(const double* q, double* M) {
   const double t1037 = t1036 - t1017;
   const double t1038 = t974 + t1037;
   const double t1070 = t171 * 0.32955;
-  const double t1068 = t170 * (-0.1188);
+  const double t1068 = t170 * (-0.11880000000000002);
   const double t1071 = t1070 - t1068;
   const double t1096 = t171 * t1071;
-  const double t1074 = t171 * (-0.1188);
+  const double t1074 = t171 * (-0.11880000000000002);
   const double t1072 = t170 * 1.46535;
   const double t1075 = t1074 - t1072;
   const double t1094 = t170 * t1075;
@@ -8939,10 +8939,10 @@ void mass_matrix_part(const double* q, double* M) {
   const double t1101 = t1100 - t1081;
   const double t1102 = t1038 + t1101;
   const double t1134 = t175 * 0.32955;
-  const double t1132 = t174 * 0.1188;
+  const double t1132 = t174 * 0.11880000000000002;
   const double t1135 = t1134 - t1132;
   const double t1160 = t175 * t1135;
-  const double t1138 = t175 * 0.1188;
+  const double t1138 = t175 * 0.11880000000000002;
   const double t1136 = t174 * 1.46535;
   const double t1139 = t1138 - t1136;
   const double t1158 = t174 * t1139;
@@ -11327,7 +11327,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t390 = t162 * v[4];
   const double t392 = t389 - t390;
   const double t1915 = t392 * 1.46535;
-  const double t1916 = t388 * (-0.1188);
+  const double t1916 = t388 * (-0.11880000000000002);
   const double t1917 = t1915 + t1916;
   // body 11: velocity and velocity-product acceleration of 'rr_lower_pivot'
   const double t297 = v[5] * (-0.36);
@@ -11339,7 +11339,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1920 = t1917 - t1909;
   const double t1940 = t388 * t1920;
   const double t1908 = t301 * (-0.54);
-  const double t1912 = t392 * (-0.1188);
+  const double t1912 = t392 * (-0.11880000000000002);
   const double t1913 = t388 * 0.32955;
   const double t1914 = t1912 + t1913;
   const double t1919 = t1908 + t1914;
@@ -11394,7 +11394,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t354 = t166 * v[4];
   const double t356 = t353 - t354;
   const double t2003 = t356 * 1.46535;
-  const double t2004 = t352 * 0.1188;
+  const double t2004 = t352 * 0.11880000000000002;
   const double t2005 = t2003 + t2004;
   const double t252 = v[5] * 0.36;
   const double t253 = t252 - t251;
@@ -11403,7 +11403,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2008 = t2005 - t1997;
   const double t2028 = t352 * t2008;
   const double t1996 = t260 * (-0.54);
-  const double t2000 = t356 * 0.1188;
+  const double t2000 = t356 * 0.11880000000000002;
   const double t2001 = t352 * 0.32955;
   const double t2002 = t2000 + t2001;
   const double t2007 = t1996 + t2002;
@@ -11459,11 +11459,11 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t314 = t170 * v[4];
   const double t316 = t313 - t314;
   const double t2085 = t316 * 1.46535;
-  const double t2086 = t312 * (-0.1188);
+  const double t2086 = t312 * (-0.11880000000000002);
   const double t2087 = t2085 + t2086;
   const double t2090 = t2087 - t1909;
   const double t2110 = t312 * t2090;
-  const double t2082 = t316 * (-0.1188);
+  const double t2082 = t316 * (-0.11880000000000002);
   const double t2083 = t312 * 0.32955;
   const double t2084 = t2082 + t2083;
   const double t2089 = t1908 + t2084;
@@ -11517,11 +11517,11 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t274 = t174 * v[4];
   const double t276 = t273 - t274;
   const double t2165 = t276 * 1.46535;
-  const double t2166 = t272 * 0.1188;
+  const double t2166 = t272 * 0.11880000000000002;
   const double t2167 = t2165 + t2166;
   const double t2170 = t2167 - t1997;
   const double t2190 = t272 * t2170;
-  const double t2162 = t276 * 0.1188;
+  const double t2162 = t276 * 0.11880000000000002;
   const double t2163 = t272 * 0.32955;
   const double t2164 = t2162 + t2163;
   const double t2169 = t1996 + t2164;
@@ -12270,7 +12270,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1949 = t1935 + t1944;
   const double t1962 = t996 * (-0.54);
   const double t1967 = t397 * 0.32955;
-  const double t1965 = t398 * (-0.1188);
+  const double t1965 = t398 * (-0.11880000000000002);
   const double t1968 = t1967 - t1965;
   const double t1973 = t1962 + t1968;
   const double t1976 = t1949 + t1973;
@@ -12282,7 +12282,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t1945 = t388 * t1918;
   const double t1947 = t1946 - t1945;
   const double t1950 = t1938 + t1947;
-  const double t1971 = t397 * (-0.1188);
+  const double t1971 = t397 * (-0.11880000000000002);
   const double t1969 = t398 * 1.46535;
   const double t1972 = t1971 - t1969;
   const double t1963 = t996 * (-3.96);
@@ -12308,7 +12308,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2032 = t2031 - t2030;
   const double t2037 = t2023 + t2032;
   const double t2053 = t361 * 0.32955;
-  const double t2051 = t362 * 0.1188;
+  const double t2051 = t362 * 0.11880000000000002;
   const double t2054 = t2053 - t2051;
   const double t2059 = t1962 + t2054;
   const double t2062 = t2037 + t2059;
@@ -12320,7 +12320,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2033 = t352 * t2006;
   const double t2035 = t2034 - t2033;
   const double t2038 = t2026 + t2035;
-  const double t2057 = t361 * 0.1188;
+  const double t2057 = t361 * 0.11880000000000002;
   const double t2055 = t362 * 1.46535;
   const double t2058 = t2057 - t2055;
   const double t2049 = t996 * 3.96;
@@ -12346,7 +12346,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2114 = t2113 - t2112;
   const double t2119 = t2105 + t2114;
   const double t2133 = t321 * 0.32955;
-  const double t2131 = t322 * (-0.1188);
+  const double t2131 = t322 * (-0.11880000000000002);
   const double t2134 = t2133 - t2131;
   const double t2139 = t1962 + t2134;
   const double t2142 = t2119 + t2139;
@@ -12358,7 +12358,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2115 = t312 * t2088;
   const double t2117 = t2116 - t2115;
   const double t2120 = t2108 + t2117;
-  const double t2137 = t321 * (-0.1188);
+  const double t2137 = t321 * (-0.11880000000000002);
   const double t2135 = t322 * 1.46535;
   const double t2138 = t2137 - t2135;
   const double t2140 = t2138 - t1963;
@@ -12383,7 +12383,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2194 = t2193 - t2192;
   const double t2199 = t2185 + t2194;
   const double t2213 = t281 * 0.32955;
-  const double t2211 = t282 * 0.1188;
+  const double t2211 = t282 * 0.11880000000000002;
   const double t2214 = t2213 - t2211;
   const double t2219 = t1962 + t2214;
   const double t2222 = t2199 + t2219;
@@ -12395,7 +12395,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   const double t2195 = t272 * t2168;
   const double t2197 = t2196 - t2195;
   const double t2200 = t2188 + t2197;
-  const double t2217 = t281 * 0.1188;
+  const double t2217 = t281 * 0.11880000000000002;
   const double t2215 = t282 * 1.46535;
   const double t2218 = t2217 - t2215;
   const double t2220 = t2218 - t2049;
