@@ -18,6 +18,7 @@
 #include "analysis/constraints.hpp"
 #include "analysis/finite_dynamics.hpp"
 #include "emit/emitter.hpp"
+#include "emit/graph.hpp"
 #include "emit/report.hpp"
 #include "ir/error.hpp"
 #include "topology/topology.hpp"
@@ -32,7 +33,8 @@ constexpr const char* kUsage =
     "             [--gravity GX,GY,GZ] [--method llt|ldlt] [--report OPS.md]\n"
     "             [--strict-constraints] [--bound-mass KG] [--bound-inertia KGM2]\n"
     "             [--assemble-from Q.txt] [--singular off|proximal]\n"
-    "             [--threads auto|1|N] [--divide]\n";
+    "             [--threads auto|1|N] [--divide] [--graph OUT.dot|OUT.svg]\n"
+    "             [--sparsity OUT.svg]\n";
 
 constexpr const char* kHelp =
     "Generates a loop-free C++ solver of the equations of motion of a mechanism\n"
@@ -47,6 +49,9 @@ constexpr const char* kHelp =
     "                        0,0,0 removes gravity code)\n"
     "  --method llt|ldlt     factorization: Cholesky or square-root-free L D L^T\n"
     "  --report OPS.md       write the operation counts of the emitted code\n"
+    "  --graph OUT.dot|OUT.svg  draw the mechanism: bodies, tree joints, cut joints\n"
+    "                        (dashed) and the Lemma 2 numbering (.svg needs Graphviz)\n"
+    "  --sparsity OUT.svg    (extension) draw the patterns of L, T and T^T T\n"
     "  --strict-constraints  redundant constraint rows are an error\n"
     "  --bound-mass KG       raise every moving body lighter than KG to KG (one\n"
     "                        note each; MuJoCo's boundmass): loads links without\n"
@@ -79,6 +84,8 @@ struct Arguments {
   std::string name_space;
   bool namespace_given = false;
   std::string report;
+  std::string graph;     ///< --graph: .dot or .svg
+  std::string sparsity;  ///< --sparsity: .svg
   std::string assemble_from;
   Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
   jrgen::emit::Method method = jrgen::emit::Method::kLLT;
@@ -98,6 +105,16 @@ bool parse_finite(const std::string& text, double& x) {
     return false;
   }
   return used != 0 && used == text.size() && std::isfinite(x);
+}
+
+// The file of --graph or --sparsity: its extension says the format.
+std::string picture_path(const std::string& option, const std::string& path, const std::vector<std::string>& allowed) {
+  const std::string ext = fs::path(path).extension().string();
+  for (const std::string& e : allowed)
+    if (ext == e) return path;
+  std::string list;
+  for (const std::string& e : allowed) list += (list.empty() ? "" : " or ") + e;
+  throw jrgen::Error(option + " '" + path + "': the file name must end in " + list + " (the format it writes)");
 }
 
 // A bound of --bound-mass or --bound-inertia: a finite number > 0.
@@ -139,6 +156,8 @@ Arguments parse_arguments(int argc, char** argv) {
     }
     else if (a == "--gravity") args.gravity = parse_gravity(value(i));
     else if (a == "--report") args.report = value(i);
+    else if (a == "--graph") args.graph = picture_path(a, value(i), {".dot", ".svg"});
+    else if (a == "--sparsity") args.sparsity = picture_path(a, value(i), {".svg"});
     else if (a == "--assemble-from") args.assemble_from = value(i);
     else if (a == "--strict-constraints") args.strict_constraints = true;
     else if (a == "--divide") args.divide = true;
@@ -302,6 +321,8 @@ int run(const Arguments& args) {
     if (!args.assemble_from.empty()) inputs.push_back({"the --assemble-from file", args.assemble_from});
     std::vector<NamedPath> outputs = {{"-o", args.output}, {"the header of -o", hpp.string()}};
     if (!args.report.empty()) outputs.push_back({"--report", args.report});
+    if (!args.graph.empty()) outputs.push_back({"--graph", args.graph});
+    if (!args.sparsity.empty()) outputs.push_back({"--sparsity", args.sparsity});
     check_outputs_are_distinct(inputs, outputs);
   }
   jrgen::ir::Robot robot = jrgen::urdf::read_robot(args.model);
@@ -332,6 +353,12 @@ int run(const Arguments& args) {
   out.add(hpp_path, solver.header);
   if (!args.report.empty())
     out.add(args.report, jrgen::emit::operation_report(robot, tree, solver) + analysis.report_section);
+  if (!args.graph.empty()) {
+    const std::string dot = jrgen::emit::topology_dot(robot, tree);
+    const bool svg = fs::path(args.graph).extension() == ".svg";
+    out.add(args.graph, svg ? jrgen::emit::render_svg(dot, args.graph) : dot);
+  }
+  if (!args.sparsity.empty()) out.add(args.sparsity, jrgen::emit::sparsity_svg(robot, tree));
   out.commit();
   // Notes only after success: a failing run prints exactly one line.
   for (const std::string& note : tree.notes) std::cerr << "jrgen: note: " << note << '\n';

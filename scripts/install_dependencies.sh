@@ -55,7 +55,8 @@ apt_get() {
 demo_packages=(build-essential cmake libeigen3-dev liburdfdom-dev libtinyxml-dev libfmt-dev)
 test_packages=(libgtest-dev libbenchmark-dev
                liblapacke-dev libopenblas-dev libsuitesparse-dev libmujoco-dev gnuplot-nox python3
-               clang-14 libclang-rt-14-dev)
+               clang-14 libclang-rt-14-dev
+               graphviz)  # jrgen --graph OUT.svg renders with dot (tests/generator/graph_test.cpp)
 packages=("${demo_packages[@]}")
 [[ $mode == full ]] && packages+=("${test_packages[@]}")
 

@@ -10,6 +10,14 @@ foreach(_t cli_test golden_test assembly_cli_test)
   add_dependencies(${_t} jrgen)
 endforeach()
 
+# --graph, --sparsity: the pictures' text (emit/graph.cpp) and the command line.
+jrgen_test(graph_test generator/graph_test.cpp)
+target_include_directories(graph_test PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
+target_compile_definitions(graph_test PRIVATE JRGEN_EXECUTABLE="$<TARGET_FILE:jrgen>")
+target_compile_features(graph_test PRIVATE cxx_std_20)
+target_link_libraries(graph_test PRIVATE jrgen_emit jrgen_model_cases jrgen_topology)
+add_dependencies(graph_test jrgen)
+
 # Refreshes tests/golden/*/solver.{cpp,hpp} in the source tree from the current
 # jrgen; review the result with `git diff tests/golden` before committing.
 add_custom_target(update_goldens
