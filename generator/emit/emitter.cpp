@@ -210,7 +210,8 @@ void separate_steps(const std::vector<StepOps>& ops, TemplateValues& v) {
 Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Options& options) {
   if (t.nv == 0)
     throw Error(ir::SourceLocation{robot.source_file, 0}, "robot", robot.name,
-                "has no moving joints: there are no equations of motion to solve");
+                "has no moving joints: there are no equations of motion to solve; give it at least one joint "
+                "of type revolute, continuous, prismatic, planar, floating or ball");
   Plan plan = plan_solver(t, options);
   // Step 3 first: whether it is table-driven decides what Step 1 writes.
   LoopCode loops;

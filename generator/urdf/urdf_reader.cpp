@@ -18,6 +18,7 @@
 #include "urdf/urdf_reader.hpp"
 
 #include <console_bridge/console.h>
+#include <fmt/format.h>
 #include <tinyxml.h>
 #include <urdf_parser/urdf_parser.h>
 
@@ -255,12 +256,34 @@ std::string read_file(const std::string& path) {
   return text.str();
 }
 
+// What TinyXML would misreport ("Error document empty" for a binary file):
+// an empty file, a NUL byte, or a first character that cannot start XML.
+void check_xml_text(const Doc& doc, const std::string& xml) {
+  const std::string fix = "give a URDF: an XML text file whose root element is <robot name=\"...\">";
+  const std::size_t nul = xml.find('\0');
+  if (nul != std::string::npos)
+    throw Error(ir::SourceLocation{doc.file, 0}, "", "",
+                fmt::format("not a text file (a NUL byte at offset {}); {}", nul, fix));
+  std::size_t first = xml.rfind("\xEF\xBB\xBF", 0) == 0 ? 3 : 0;  // a UTF-8 byte order mark
+  first = xml.find_first_not_of(" \t\r\n", first);
+  if (first == std::string::npos)
+    throw Error(ir::SourceLocation{doc.file, 0}, "", "", "the file is empty; " + fix);
+  if (xml[first] != '<') {
+    const int line = 1 + static_cast<int>(std::count(xml.begin(), xml.begin() + static_cast<long>(first), '\n'));
+    throw Error(ir::SourceLocation{doc.file, line}, "", "",
+                fmt::format("not XML: it starts with byte 0x{:02X} where '<' was expected; {}",
+                            static_cast<unsigned char>(xml[first]), fix));
+  }
+}
+
 void parse_xml(const Doc& doc, const std::string& xml, TiXmlDocument& out) {
+  check_xml_text(doc, xml);
   out.Parse(xml.c_str(), nullptr, TIXML_ENCODING_UTF8);
   if (out.Error()) {
     const int row = out.ErrorRow() > 0 ? out.ErrorRow() : 0;
     throw Error(ir::SourceLocation{doc.file, row}, "", "",
-                std::string("malformed XML: ") + out.ErrorDesc());
+                std::string("malformed XML: ") + out.ErrorDesc() +
+                    " (check that every element near this line is closed and every attribute value quoted)");
   }
 }
 
