@@ -20,3 +20,27 @@ add_test(NAME package.install_and_build_downstream
     -P "${CMAKE_CURRENT_LIST_DIR}/install_and_build_downstream.cmake")
 set_tests_properties(package.install_and_build_downstream PROPERTIES
   TIMEOUT 900 LABELS package)
+
+# jrgen pulled into a project's own build (tests/package/subproject): with
+# FetchContent, built and run (Debug: the quickest full compile of jrgen);
+# with add_subdirectory(), configured (the same add_subdirectory() underneath,
+# so building it twice would only repeat the compile).
+foreach(_mode fetchcontent subdirectory)
+  if(_mode STREQUAL "fetchcontent")
+    set(_build ON)
+  else()
+    set(_build OFF)
+  endif()
+  add_test(NAME package.subproject_${_mode}
+    COMMAND "${CMAKE_COMMAND}"
+      "-DJRGEN_SOURCE_DIR=${PROJECT_SOURCE_DIR}"
+      "-DWORK_DIR=${CMAKE_CURRENT_BINARY_DIR}/subproject_test"
+      "-DMODE=${_mode}" "-DBUILD=${_build}"
+      "-DGENERATOR=${CMAKE_GENERATOR}"
+      "-DMAKE_PROGRAM=${CMAKE_MAKE_PROGRAM}"
+      "-DCXX_COMPILER=${CMAKE_CXX_COMPILER}"
+      "-DEIGEN3_DIR=${Eigen3_DIR}"
+      "-DLAUNCHER=${CMAKE_CXX_COMPILER_LAUNCHER}"
+      -P "${CMAKE_CURRENT_LIST_DIR}/subproject_test.cmake")
+  set_tests_properties(package.subproject_${_mode} PROPERTIES TIMEOUT 900 LABELS package)
+endforeach()
