@@ -17,6 +17,8 @@
 #include "frc_branched_rt.hpp"
 #include "frc_coincide.hpp"
 #include "frc_coincide_rt.hpp"
+#include "frc_gripper.hpp"
+#include "frc_gripper_rt.hpp"
 #include "frc_slider.hpp"
 #include "frc_slider_aba.hpp"
 #include "frc_slider_rt.hpp"
@@ -212,6 +214,80 @@ TEST(Forces, CoincidentDefaultRestLengthIsAnError) {
                  "coincide.urdf:5: <spring> 'tie': its two points coincide at the zero configuration, so "
                  "rest_length (by default their distance there) leaves the force's direction undefined at "
                  "rest; give rest_length");
+  }
+}
+
+// ---- Mimic rows (tests/forces/gripper_mimic.urdf) ------------------------------
+//
+// q = (wrist, finger_left, knuckle, finger_right), user order.  Rows:
+// knuckle = -0.5 wrist + 0.1 (its leader an ancestor) and finger_right =
+// -finger_left (siblings).  With these linear rows q = G y + c for the free
+// y = (wrist, finger_left), G constant, so the constrained accelerations are
+// qdd = G a with (G^T M G) a = G^T (tau - h): an independent route through
+// the reduced equations, from the solver's own M and h.
+struct LoopSolver {
+  const char* name;
+  int nc;
+  int (*forward_dynamics)(const double*, const double*, const double*, double*, double*);
+  void (*bias_forces)(const double*, const double*, double*);
+  void (*mass_matrix)(const double*, double*);
+  void (*constraints)(const double*, double*);
+  void (*constraint_jacobian)(const double*, double*);
+  void (*constraint_gamma)(const double*, const double*, double*);
+};
+#define JR_LOOP_SOLVER(ns)                                                                                  \
+  LoopSolver {                                                                                              \
+    #ns, ns::nc, &ns::forward_dynamics, &ns::bias_forces, &ns::mass_matrix, &ns::constraints,               \
+        &ns::constraint_jacobian, &ns::constraint_gamma                                                     \
+  }
+const std::vector<LoopSolver> kGrippers = {JR_LOOP_SOLVER(frc_gripper), JR_LOOP_SOLVER(frc_gripper_rt)};
+
+Eigen::Matrix<double, 4, 2> gripper_G() {
+  Eigen::Matrix<double, 4, 2> G;
+  G << 1, 0,  //
+      0, 1,   //
+      -0.5, 0,  //
+      0, -1;
+  return G;
+}
+
+// qdd agrees with the reduced route to eps times cond(G^T M G) (below 1e4
+// here) times a few: 1e-10 relative to |qdd|; a free mimic joint (the old
+// behaviour) or a wrong sign breaks qdd_right = -qdd_left at O(1).
+TEST(Mimic, RowsAreCountedAndTheMimicPairsMoveTogether) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const Eigen::Matrix<double, 4, 2> G = gripper_G();
+  for (const LoopSolver& s : kGrippers) {
+    SCOPED_TRACE(s.name);
+    EXPECT_EQ(s.nc, 2);
+    for (int trial = 0; trial < 5; ++trial) {
+      const Eigen::Vector2d y(u(rng), 0.03 * u(rng)), yd(2 * u(rng), 0.1 * u(rng));
+      const Eigen::Vector4d q = G * y + Eigen::Vector4d(0, 0, 0.1, 0), v = G * yd;
+      const Eigen::Vector4d tau(u(rng), u(rng), u(rng), u(rng));
+      Eigen::Vector4d qdd;
+      Eigen::Vector2d lambda, phi, gamma;
+      ASSERT_EQ(s.forward_dynamics(q.data(), v.data(), tau.data(), qdd.data(), lambda.data()), 0);
+      s.constraints(q.data(), phi.data());
+      EXPECT_LE(phi.lpNorm<Eigen::Infinity>(), 4 * kEps);
+      s.constraint_gamma(q.data(), v.data(), gamma.data());
+      EXPECT_EQ(gamma, Eigen::Vector2d::Zero());
+      Eigen::Matrix<double, 2, 4> Phiq;
+      s.constraint_jacobian(q.data(), Phiq.data());
+      Eigen::Matrix<double, 2, 4> expected;
+      expected << 0.5, 0, 1, 0,  // knuckle + 0.5 wrist - 0.1
+          0, 1, 0, 1;            // finger_right + finger_left
+      EXPECT_EQ(Phiq, expected);
+      const double scale = qdd.lpNorm<Eigen::Infinity>();
+      EXPECT_NEAR(qdd[3], -qdd[1], 1e-10 * scale);
+      EXPECT_NEAR(qdd[2], -0.5 * qdd[0], 1e-10 * scale);
+      Eigen::Matrix4d M;
+      Eigen::Vector4d h;
+      s.mass_matrix(q.data(), M.data());
+      s.bias_forces(q.data(), v.data(), h.data());
+      const Eigen::Vector2d a = (G.transpose() * M * G).ldlt().solve(G.transpose() * (tau - h));
+      EXPECT_LE((qdd - G * a).lpNorm<Eigen::Infinity>(), 1e-10 * scale);
+    }
   }
 }
 
