@@ -15,6 +15,8 @@
 #include "frc_branched.hpp"
 #include "frc_branched_aba.hpp"
 #include "frc_branched_rt.hpp"
+#include "frc_chain.hpp"
+#include "frc_chain_rt.hpp"
 #include "frc_coincide.hpp"
 #include "frc_coincide_rt.hpp"
 #include "frc_gripper.hpp"
@@ -195,6 +197,29 @@ TEST(Forces, SpecializedRoutesAgreeWithTheRuntimeTerms) {
   }
 }
 
+// tests/forces/chain40_forces.urdf: the runtime's terms take its
+// articulated-body route (jr::articulated_dynamics on tau - the force
+// elements' part of h); against the specialized composite route.  The
+// accelerations through the residual M (qdd - qdd_rt) (M's conditioning
+// does not enter), bound 1e3 eps of the scale: sums over 40 bodies of
+// rounded products; a lost force element is off by O(|force|).
+TEST(Forces, RuntimeArticulatedRouteAgreesOnALongChain) {
+  const Solver s = JR_SOLVER(frc_chain), rt = JR_SOLVER(frc_chain_rt);
+  std::mt19937_64 rng(40);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 3; ++trial) {
+    Eigen::VectorXd q(40), v(40), tau(40), qdd(40), qdd_rt(40), h(40);
+    for (int k = 0; k < 40; ++k) q[k] = u(rng), v[k] = u(rng), tau[k] = 0.1 * u(rng);
+    ASSERT_EQ(s.forward_dynamics(q.data(), v.data(), tau.data(), qdd.data(), nullptr), 0);
+    ASSERT_EQ(rt.forward_dynamics(q.data(), v.data(), tau.data(), qdd_rt.data(), nullptr), 0);
+    Eigen::MatrixXd M(40, 40);
+    s.mass_matrix(q.data(), M.data());
+    s.bias_forces(q.data(), v.data(), h.data());
+    const double scale = std::max(h.lpNorm<Eigen::Infinity>(), tau.lpNorm<Eigen::Infinity>());
+    EXPECT_LE((M * (qdd - qdd_rt)).lpNorm<Eigen::Infinity>(), 1e3 * kEps * scale);
+  }
+}
+
 // A spring without rest_length whose points coincide at the zero
 // configuration: the default rest length would leave the force's direction
 // undefined at rest, which is an error naming the spring and the fix.
@@ -287,6 +312,11 @@ TEST(Mimic, RowsAreCountedAndTheMimicPairsMoveTogether) {
       s.bias_forces(q.data(), v.data(), h.data());
       const Eigen::Vector2d a = (G.transpose() * M * G).ldlt().solve(G.transpose() * (tau - h));
       EXPECT_LE((qdd - G * a).lpNorm<Eigen::Infinity>(), 1e-10 * scale);
+      // The spring between the fingers on the loops' routes: specialized
+      // (one program with Phiq) and runtime h agree to a few roundings.
+      Eigen::Vector4d h_rt;
+      kGrippers.back().bias_forces(q.data(), v.data(), h_rt.data());
+      EXPECT_LE((h - h_rt).lpNorm<Eigen::Infinity>(), 64 * kEps * std::max(1.0, h_rt.lpNorm<Eigen::Infinity>()));
     }
   }
 }
