@@ -671,8 +671,9 @@ void describe_assembly(const ir::Robot& robot, const topology::Tree& tree, const
                        const std::string& user_file, ConstraintAnalysis& out) {
   const std::vector<std::string> names = coordinate_names(tree);
   const std::string drawn = a.drawn_residual > 0.0
-      ? fmt::format("the loops are open at the zero configuration (largest residual {:.3g}, loop joint '{}')",
-                    a.drawn_residual, tree.cuts[a.drawn_worst].name)
+      ? fmt::format("the loops are open at the zero configuration (largest residual {:.3g}, {} joint '{}')",
+                    a.drawn_residual, tree.cuts[a.drawn_worst].type == ir::CutType::Mimic ? "mimic" : "loop",
+                    tree.cuts[a.drawn_worst].name)
       : "the zero configuration is assembled";
   std::string how = fmt::format("{}; assembled from {} (largest residual {:.1e})", drawn, a.start, a.residual);
   if (!a.user_against.empty())

@@ -259,11 +259,13 @@ struct LoopSolver {
   void (*constraints)(const double*, double*);
   void (*constraint_jacobian)(const double*, double*);
   void (*constraint_gamma)(const double*, const double*, double*);
+  int (*solve_augmented)(const double*, const double*, const double*, const double*, double*, double*);
+  const char* (*last_error)();
 };
 #define JR_LOOP_SOLVER(ns)                                                                                  \
   LoopSolver {                                                                                              \
     #ns, ns::nc, &ns::forward_dynamics, &ns::bias_forces, &ns::mass_matrix, &ns::constraints,               \
-        &ns::constraint_jacobian, &ns::constraint_gamma                                                     \
+        &ns::constraint_jacobian, &ns::constraint_gamma, &ns::solve_augmented, &ns::last_error              \
   }
 const std::vector<LoopSolver> kGrippers = {JR_LOOP_SOLVER(frc_gripper), JR_LOOP_SOLVER(frc_gripper_rt)};
 
@@ -318,6 +320,27 @@ TEST(Mimic, RowsAreCountedAndTheMimicPairsMoveTogether) {
       kGrippers.back().bias_forces(q.data(), v.data(), h_rt.data());
       EXPECT_LE((h - h_rt).lpNorm<Eigen::Infinity>(), 64 * kEps * std::max(1.0, h_rt.lpNorm<Eigen::Infinity>()));
     }
+  }
+}
+
+// Status 2 names the mimic row by its joint: solve_augmented on a Phiq whose
+// two rows are equal (both rows' Lemma 3 dofs include the wrist and the left
+// finger: the knuckle hangs below the left finger).
+TEST(Mimic, DependentRowsNameTheMimicJoint) {
+  for (const LoopSolver& s : kGrippers) {
+    SCOPED_TRACE(s.name);
+    const Eigen::Vector4d q(0.2, 0.01, 0.0, -0.01), v = Eigen::Vector4d::Zero();
+    Eigen::Matrix4d M;
+    s.mass_matrix(q.data(), M.data());
+    Eigen::Matrix<double, 2, 4> Phiq;
+    Phiq << 0.5, 1, 0, 0,  // the wrist and the left finger are on both rows' paths (Lemma 3)
+        0.5, 1, 0, 0;
+    const Eigen::Vector4d Q(1, 2, 3, 4);
+    const Eigen::Vector2d gamma = Eigen::Vector2d::Zero();
+    Eigen::Vector4d qdd;
+    Eigen::Vector2d lambda;
+    EXPECT_EQ(s.solve_augmented(M.data(), Q.data(), Phiq.data(), gamma.data(), qdd.data(), lambda.data()), 2);
+    EXPECT_NE(std::string(s.last_error()).find("mimic joint '"), std::string::npos) << s.last_error();
   }
 }
 
