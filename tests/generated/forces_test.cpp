@@ -5,6 +5,8 @@
 // generated from tests/forces/*.urdf (tests/CMakeLists.txt).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <Eigen/Dense>
 #include <Eigen/Geometry>
 #include <cmath>
@@ -16,6 +18,7 @@
 #include "frc_branched_aba.hpp"
 #include "frc_branched_rt.hpp"
 #include "frc_chain.hpp"
+#include "frc_chain_mimic_rt.hpp"
 #include "frc_chain_rt.hpp"
 #include "frc_coincide.hpp"
 #include "frc_coincide_rt.hpp"
@@ -320,6 +323,43 @@ TEST(Mimic, RowsAreCountedAndTheMimicPairsMoveTogether) {
       kGrippers.back().bias_forces(q.data(), v.data(), h_rt.data());
       EXPECT_LE((h - h_rt).lpNorm<Eigen::Infinity>(), 64 * kEps * std::max(1.0, h_rt.lpNorm<Eigen::Infinity>()));
     }
+  }
+}
+
+// tests/forces/chain80_mimic.urdf on the runtime's articulated-body route for
+// loops (jr::articulated_closed, with tau - h_forces): j79 = 0.5 j0 + 0.2
+// (leader an ancestor) and j40 = -2 j41 (leader a descendant), against the
+// reduced equations as above (G: 80 x 78, constant).  The reduced matrix of
+// 80 light links is ill-conditioned (cond 2e6-3e6 at these states: eps cond
+// = 7e-10), so the bound is 1e-8 relative to |qdd| (measured: 2e-11); a
+// wrong mimic entry is off by O(1).
+TEST(Mimic, RuntimeArticulatedRouteForLoopsOnALongChain) {
+  const int n = 80;
+  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(n, n - 2);
+  std::vector<int> free;
+  for (int k = 0; k < n; ++k)
+    if (k != 79 && k != 40) free.push_back(k);
+  for (int c = 0; c < n - 2; ++c) G(free[c], c) = 1.0;
+  G(79, 0) = 0.5;                             // j79 = 0.5 j0 + 0.2
+  G(40, std::find(free.begin(), free.end(), 41) - free.begin()) = -2.0;  // j40 = -2 j41
+  std::mt19937_64 rng(80);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 3; ++trial) {
+    Eigen::VectorXd y(n - 2), yd(n - 2), tau(n);
+    for (int k = 0; k < n - 2; ++k) y[k] = 0.3 * u(rng), yd[k] = u(rng);
+    for (int k = 0; k < n; ++k) tau[k] = 0.05 * u(rng);
+    Eigen::VectorXd q = G * y, v = G * yd, qdd(n), h(n), lambda(2);
+    q[79] += 0.2;
+    ASSERT_EQ(frc_chain_mimic_rt::forward_dynamics(q.data(), v.data(), tau.data(), qdd.data(), lambda.data()), 0)
+        << frc_chain_mimic_rt::last_error();
+    Eigen::MatrixXd M(n, n);
+    frc_chain_mimic_rt::mass_matrix(q.data(), M.data());
+    frc_chain_mimic_rt::bias_forces(q.data(), v.data(), h.data());
+    const Eigen::VectorXd a = (G.transpose() * M * G).ldlt().solve(G.transpose() * (tau - h));
+    const double scale = qdd.lpNorm<Eigen::Infinity>();
+    EXPECT_NEAR(qdd[79], 0.5 * qdd[0], 1e-12 * scale);
+    EXPECT_NEAR(qdd[40], -2.0 * qdd[41], 1e-12 * scale);
+    EXPECT_LE((qdd - G * a).lpNorm<Eigen::Infinity>(), 1e-8 * scale);
   }
 }
 
