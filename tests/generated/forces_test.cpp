@@ -24,6 +24,7 @@
 #include "frc_coincide_rt.hpp"
 #include "frc_gripper.hpp"
 #include "frc_gripper_rt.hpp"
+#include "frc_gripper_tables.hpp"
 #include "frc_slider.hpp"
 #include "frc_slider_aba.hpp"
 #include "frc_slider_rt.hpp"
@@ -270,7 +271,8 @@ struct LoopSolver {
     #ns, ns::nc, &ns::forward_dynamics, &ns::bias_forces, &ns::mass_matrix, &ns::constraints,               \
         &ns::constraint_jacobian, &ns::constraint_gamma, &ns::solve_augmented, &ns::last_error              \
   }
-const std::vector<LoopSolver> kGrippers = {JR_LOOP_SOLVER(frc_gripper), JR_LOOP_SOLVER(frc_gripper_rt)};
+const std::vector<LoopSolver> kGrippers = {JR_LOOP_SOLVER(frc_gripper), JR_LOOP_SOLVER(frc_gripper_tables),
+                                           JR_LOOP_SOLVER(frc_gripper_rt)};
 
 Eigen::Matrix<double, 4, 2> gripper_G() {
   Eigen::Matrix<double, 4, 2> G;
