@@ -167,6 +167,39 @@ TEST(Forces, BiasForcesAtRestAreTheGradientOfThePotential) {
   }
 }
 
+// The damping forces derive from a Rayleigh dissipation function: the part
+// of h odd in v, D(v) = (h(q, v) - h(q, -v)) / 2 (Coriolis and centrifugal
+// terms are even in v, gravity and springs do not depend on it), is B v with
+// B = diag(joint damping) + sum over springs of c g g^T (g = dL/dq): linear,
+// symmetric (v1 . D(v2) = v2 . D(v1)) and positive semi-definite.  A spring's
+// damping applied with the wrong point velocity or sign breaks symmetry or
+// sign at O(1); the bounds are 1e3 eps of the products' scale (sums of some
+// hundred rounded terms of size |h|).
+TEST(Forces, DampingDerivesFromADissipationFunction) {
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (const Solver& s : kBranched) {
+    SCOPED_TRACE(s.name);
+    for (int trial = 0; trial < 4; ++trial) {
+      const Eigen::VectorXd q = random_q(rng);
+      auto odd = [&](const Eigen::VectorXd& v) {
+        Eigen::VectorXd hp(6), hm(6);
+        const Eigen::VectorXd mv = -v;
+        s.bias_forces(q.data(), v.data(), hp.data());
+        s.bias_forces(q.data(), mv.data(), hm.data());
+        return Eigen::VectorXd((hp - hm) / 2);
+      };
+      Eigen::VectorXd v1(6), v2(6);
+      for (int k = 0; k < 6; ++k) v1[k] = u(rng), v2[k] = u(rng);
+      const Eigen::VectorXd D1 = odd(v1), D2 = odd(v2);
+      const double scale = std::max(1.0, std::max(D1.lpNorm<Eigen::Infinity>(), D2.lpNorm<Eigen::Infinity>()));
+      EXPECT_NEAR(v1.dot(D2), v2.dot(D1), 1e3 * kEps * scale);
+      EXPECT_LE((odd(v1 + v2) - D1 - D2).lpNorm<Eigen::Infinity>(), 1e3 * kEps * scale);
+      EXPECT_GT(v1.dot(D1), 0.0);  // the joint dampers alone make it positive
+    }
+  }
+}
+
 // The specialized programs against the runtime's terms on the same model: the
 // same formulas in another order of operations (and with constants folded), so
 // a few roundings of the terms' scale.  Scale: the largest |h| and |M qdd|
