@@ -50,6 +50,8 @@ struct Run {
   std::string last_rhs_error;  // the latest failure of f, for messages
   double t_next_out = 0.0;
   long k_out = 0;
+  double t = 0.0;  // time reached
+  double h = 0.0;  // step to continue with (0: choose one)
 
   int f(double t, const Vec& y, Vec& dy) {
     ++st.f_calls;
@@ -128,7 +130,11 @@ void hermite(double ta, double tb, const Vec& ya, const Vec& fa, const Vec& yb, 
 }
 
 // ---- Dormand-Prince 5(4), HNW I, II.5 Table 5.2; dense output II.6 (6.12) -----
-Stats dopri5(Run& r, Vec& y) {
+// Integrates from r.t (and r.h if set); with `detect`, returns early when the
+// problem looks stiff: h |lambda| estimated as h |k7 - k6| / |y1 - y6| above
+// 3.25 (dopri5's stability boundary) on 15 accepted steps without 6
+// non-stiff steps in between (HNW I, II.10, as in Hairer's DOPRI5).
+void dopri5(Run& r, Vec& y, bool detect) {
   static constexpr double c2 = 1. / 5, c3 = 3. / 10, c4 = 4. / 5, c5 = 8. / 9;
   static constexpr double a21 = 1. / 5, a31 = 3. / 40, a32 = 9. / 40, a41 = 44. / 45, a42 = -56. / 15,
                           a43 = 32. / 9, a51 = 19372. / 6561, a52 = -25360. / 2187, a53 = 64448. / 6561,
@@ -143,10 +149,11 @@ Stats dopri5(Run& r, Vec& y) {
   const Eigen::Index n = y.size();
   Vec k1(n), k2(n), k3(n), k4(n), k5(n), k6(n), k7(n), yt(n), y1(n), err(n);
   Vec r1(n), r2(n), r3(n), r4(n), r5(n);
-  double t = r.t0;
+  double& t = r.t;
   r.f_accepted(t, y, k1);
-  double h = initial_step(r, t, y, k1, 5);
+  double h = r.h > 0.0 ? r.h : initial_step(r, t, y, k1, 5);
   bool rejected_last = false;
+  int stiff = 0, nonstiff = 0;
   while (t < r.t_end) {
     h = r.clip(t, std::min(h, r.h_max()));
     r.check_h(t, h);
@@ -160,7 +167,7 @@ Stats dopri5(Run& r, Vec& y) {
     yt = y + h * (a51 * k1 + a52 * k2 + a53 * k3 + a54 * k4);
     bad |= bad ? 0 : r.f(t + c5 * h, yt, k5);
     yt = y + h * (a61 * k1 + a62 * k2 + a63 * k3 + a64 * k4 + a65 * k5);
-    bad |= bad ? 0 : r.f(t + h, yt, k6);
+    bad |= bad ? 0 : r.f(t + h, yt, k6);  // yt keeps the stage-6 state for the stiffness test
     y1 = y + h * (a71 * k1 + a73 * k3 + a74 * k4 + a75 * k5 + a76 * k6);
     bad |= bad ? 0 : r.f(t + h, y1, k7);
     if (bad) {  // a stage left the solver's domain: a shorter step
@@ -186,6 +193,8 @@ Stats dopri5(Run& r, Vec& y) {
     r4 = r2 - h * k7 - r3;
     r5 = h * (d1 * k1 + d3 * k3 + d4 * k4 + d5 * k5 + d6 * k6 + d7 * k7);
     const double ta = t;
+    const double den = (y1 - yt).squaredNorm();
+    const double h_lambda = den > 0.0 ? h * std::sqrt((k7 - k6).squaredNorm() / den) : 0.0;
     t = (h == r.t_end - t) ? r.t_end : t + h;
     ++r.st.steps;
     y = y1;
@@ -194,12 +203,21 @@ Stats dopri5(Run& r, Vec& y) {
       const double th = (tt - ta) / h, th1 = 1 - th;
       out = r1 + th * (r2 + th1 * (r3 + th * (r4 + th1 * r5)));
     });
-    if (r.p.after_step) r.f_accepted(t, y, k1);  // y was stabilized: no FSAL
-    else k1 = k7;
     h *= fac;
     rejected_last = false;
+    if (h_lambda > 3.25) {
+      nonstiff = 0;
+      if (++stiff == 15 && detect) {
+        r.h = h;
+        ++r.st.switches;
+        return;
+      }
+    } else if (++nonstiff == 6) {
+      stiff = 0;
+    }
+    if (r.p.after_step) r.f_accepted(t, y, k1);  // y was stabilized: no FSAL
+    else k1 = k7;
   }
-  return r.st;
 }
 
 // ---- SDIRK4, HW II, IV.6 Table 6.5 (gamma = 1/4, L-stable, stiffly accurate) ---
@@ -274,15 +292,15 @@ bool newton_stage(Run& r, Newton& nw, double t, double h, const Vec& y, const Ve
   return false;
 }
 
-Stats sdirk4(Run& r, Vec& y) {
+void sdirk4(Run& r, Vec& y) {
   const Eigen::Index n = y.size();
   Newton nw;
   Vec f0(n), k[Sdirk4::s], Z(n), Zprev(n), known(n), y1(n), err(n), fa(n), fb(n);
   for (auto& ki : k) ki.resize(n);
-  double t = r.t0;
+  double& t = r.t;
   r.f_accepted(t, y, f0);
   fa = f0;
-  double h = initial_step(r, t, y, f0, 4);
+  double h = r.h > 0.0 ? r.h : initial_step(r, t, y, f0, 4);
   bool rejected_last = false, f0_current = true;
   while (t < r.t_end) {
     h = r.clip(t, std::min(h, r.h_max()));
@@ -344,15 +362,14 @@ Stats sdirk4(Run& r, Vec& y) {
     if (fac < 1.0 || fac > 1.2) h *= fac;
     rejected_last = false;
   }
-  return r.st;
 }
 
 // ---- Classical Runge-Kutta, fixed step ----------------------------------------
-Stats rk4(Run& r, Vec& y) {
+void rk4(Run& r, Vec& y) {
   if (!(r.s.dt > 0.0)) throw Failure(r.t0, "rk4 needs a step: give --dt (Settings::dt)");
   const Eigen::Index n = y.size();
   Vec k1(n), k2(n), k3(n), k4(n), yt(n), ya(n);
-  double t = r.t0;
+  double& t = r.t;
   r.f_accepted(t, y, k1);
   while (t < r.t_end) {
     const double h = r.clip(t, r.s.dt);
@@ -373,7 +390,6 @@ Stats rk4(Run& r, Vec& y) {
     r.f_accepted(t, y, k1);
     r.output(t, y, [&](double tt, Vec& out) { hermite(ta, t, ya, fa, y, k1, tt, out); });
   }
-  return r.st;
 }
 
 }  // namespace
@@ -381,7 +397,7 @@ Stats rk4(Run& r, Vec& y) {
 Failure::Failure(double time, const std::string& what) : std::runtime_error(fmt_time(time) + ": " + what), t(time) {}
 
 const std::vector<std::string>& method_names() {
-  static const std::vector<std::string> names = {"sdirk4", "dopri5", "rk4"};
+  static const std::vector<std::string> names = {"auto", "sdirk4", "dopri5", "rk4"};
   return names;
 }
 
@@ -389,15 +405,23 @@ Stats integrate(const OdeProblem& problem, double t0, double t_end, std::vector<
                 const Observer& observe) {
   if (static_cast<int>(y.size()) != problem.n) throw Failure(t0, "state of the wrong size");
   if (!(t_end > t0)) throw Failure(t0, "t_end must be greater than t0");
-  Run r{problem, settings, observe, t0, t_end, {}, {}, t0 + settings.every, 1};
+  Run r{problem, settings, observe, t0, t_end, {}, {}, t0 + settings.every, 1, t0, 0.0};
   Vec yv = Eigen::Map<const Vec>(y.data(), problem.n);
   if (observe) observe(t0, yv.data());
-  Stats st;
-  if (settings.method == "dopri5") st = dopri5(r, yv);
-  else if (settings.method == "sdirk4") st = sdirk4(r, yv);
-  else if (settings.method == "rk4") st = rk4(r, yv);
-  else throw Failure(t0, "unknown integrator '" + settings.method + "' (use sdirk4, dopri5 or rk4)");
-  st.t = t_end;
+  if (settings.method == "auto") {
+    dopri5(r, yv, true);
+    if (r.t < t_end) sdirk4(r, yv);  // stiff from here on
+  } else if (settings.method == "dopri5") {
+    dopri5(r, yv, false);
+  } else if (settings.method == "sdirk4") {
+    sdirk4(r, yv);
+  } else if (settings.method == "rk4") {
+    rk4(r, yv);
+  } else {
+    throw Failure(t0, "unknown integrator '" + settings.method + "' (use auto, sdirk4, dopri5 or rk4)");
+  }
+  Stats st = r.st;
+  st.t = r.t;
   Eigen::Map<Vec>(y.data(), problem.n) = yv;
   return st;
 }
@@ -567,7 +591,7 @@ void Mechanism::project_positions(double t, double* q) const {
   Work& w = work(sys_);
   sys_.constraints(q, w.phi.data());
   double r = max_abs(w.phi);
-  if (r <= set_.phi_tol) return;
+  if (r <= 0.01 * set_.phi_tol) return;
   sys_.mass_matrix(q, w.M.data());
   static constexpr int kMaxIt = 30;
   for (int it = 0; it < kMaxIt; ++it) {
@@ -579,9 +603,9 @@ void Mechanism::project_positions(double t, double* q) const {
     retract(q, w.dv.data());
     sys_.constraints(q, w.phi.data());
     const double r_new = max_abs(w.phi);
-    if (r_new <= set_.phi_tol) return;
-    // The rounding floor of Phi: no more progress below 1e-10 (a model of large size).
-    if (r_new > 0.5 * r && r_new <= 1e-10) return;
+    // Newton converges quadratically: stop well below phi_tol, or at the
+    // rounding floor (no halving any more) once below phi_tol.
+    if (r_new <= 0.01 * set_.phi_tol || (r_new > 0.5 * r && r_new <= set_.phi_tol)) return;
     r = r_new;
   }
   int row = 0;

@@ -54,7 +54,7 @@ TEST_P(Oscillator, GlobalErrorFollowsTolerance) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Methods, Oscillator, ::testing::Values("dopri5", "sdirk4"));
+INSTANTIATE_TEST_SUITE_P(Methods, Oscillator, ::testing::Values("auto", "dopri5", "sdirk4"));
 
 // Dense output: rows every 0.01 between the steps, each as accurate as the
 // steps (dopri5's interpolant is of order 4: HNW I, II.6).
@@ -107,17 +107,30 @@ OdeProblem prothero_robinson(double lambda) {
   return p;
 }
 
-TEST(Stiff, ProtheroRobinsonSdirk4) {
-  Settings s;
-  s.rtol = s.atol = 1e-8;  // default method: sdirk4
-  std::vector<double> y = {0.0};
-  double worst = 0.0;
-  const auto st = jrgen::sim::integrate(prothero_robinson(-1e6), 0.0, 10.0, y, s,
-                                        [&](double t, const double* yy) { worst = std::max(worst, std::abs(yy[0] - std::sin(t))); });
-  std::printf("PR sdirk4: steps %ld rejected %ld f %ld jac %ld lu %ld, max error %.2e\n", st.steps, st.rejected,
-              st.f_calls, st.jacobians, st.factorizations, worst);
-  EXPECT_LT(st.steps, 2000);  // measured: a few hundred
-  EXPECT_LT(worst, 10 * 1e-8);
+TEST(Stiff, ProtheroRobinsonSdirk4AndAuto) {
+  for (const char* method : {"sdirk4", "auto"}) {
+    Settings s;
+    s.method = method;
+    s.rtol = s.atol = 1e-8;
+    std::vector<double> y = {0.0};
+    double worst = 0.0;
+    const auto st = jrgen::sim::integrate(prothero_robinson(-1e6), 0.0, 10.0, y, s, [&](double t, const double* yy) {
+      worst = std::max(worst, std::abs(yy[0] - std::sin(t)));
+    });
+    std::printf("PR %s: steps %ld rejected %ld f %ld jac %ld lu %ld switches %ld, max error %.2e\n", method, st.steps,
+                st.rejected, st.f_calls, st.jacobians, st.factorizations, st.switches, worst);
+    EXPECT_LT(st.steps, 2000);  // measured: about 400
+    EXPECT_LT(worst, 10 * 1e-8);
+    EXPECT_EQ(st.switches, std::string(method) == "auto" ? 1 : 0);
+  }
+}
+
+TEST(Stiff, AutoStaysExplicitOnANonStiffProblem) {
+  Settings s;  // auto
+  std::vector<double> y = {1.0, 0.0};
+  const auto st = jrgen::sim::integrate(oscillator(), 0.0, 10.0, y, s);
+  EXPECT_EQ(st.switches, 0);
+  EXPECT_EQ(st.jacobians, 0);
 }
 
 TEST(Stiff, Dopri5IsBoundByStability) {
@@ -146,12 +159,13 @@ TEST(Stiff, RobertsonAgainstReference) {
     return 0;
   };
   const double ref[3] = {0.7158270687, 9.185534764e-6, 0.2841637458};
+  // Default integrator (auto: switches to sdirk4).
   // (a) every component to rtol 1e-8 (atol 1e-14 is below y2 ~ 1e-5 x rtol):
-  // measured max relative error 7e-10 in 17475 steps (the order-3 embedded
+  // measured max relative error 7e-10 in 4400 steps (the order-3 embedded
   // estimate is pessimistic there, docs/simulation.md); asserted 1e-7.
   // (b) the usual atol 1e-10: y2 then only to ~atol, and its error feeds
   // y1' through 1e4 y3 y2: 1e4 x 0.28 x 1e-10 x 40 = 1.1e-5 over the run.
-  // Measured 296 steps, errors 5.8e-6 (y1, y3 relative) and 6.5e-11 (y2);
+  // Measured 290 steps, errors 5.5e-6 (y1, y3 relative) and 6.5e-11 (y2);
   // asserted 5e-5 and 10 atol.
   for (const double atol : {1e-14, 1e-10}) {
     Settings s;
@@ -161,7 +175,8 @@ TEST(Stiff, RobertsonAgainstReference) {
     const auto st = jrgen::sim::integrate(p, 0.0, 40.0, y, s);
     const double rel = std::max(std::abs(y[0] - ref[0]) / ref[0], std::abs(y[2] - ref[2]) / ref[2]);
     const double e2 = std::abs(y[1] - ref[1]);
-    std::printf("Robertson sdirk4 atol %g: steps %ld rejected %ld f %ld jac %ld, y1/y3 rel error %.2e, y2 error %.2e\n",
+    EXPECT_EQ(st.switches, 1);
+    std::printf("Robertson auto atol %g: steps %ld rejected %ld f %ld jac %ld, y1/y3 rel error %.2e, y2 error %.2e\n",
                 atol, st.steps, st.rejected, st.f_calls, st.jacobians, rel, e2);
     EXPECT_LT(rel, atol == 1e-14 ? 1e-7 : 5e-5);
     EXPECT_LT(e2, atol == 1e-14 ? 1e-7 * ref[1] : 10 * atol);

@@ -5,15 +5,20 @@
 //
 //  * OdeProblem + integrate(): y' = f(t, y) with error-controlled methods,
 //    usable on any ODE (the tests run them on ODEs with known solutions):
+//      "auto"    (default) dopri5 with Hairer's stiffness detection (h |lambda|
+//                above dopri5's stability boundary 3.25 on 15 accepted steps,
+//                HNW I, II.10); from then on sdirk4.  One way: a problem that
+//                stops being stiff stays with sdirk4.
 //      "dopri5"  Dormand-Prince 5(4), explicit, FSAL, dense output of order 4
 //                (Hairer, Norsett & Wanner I, II.4-II.6);
 //      "sdirk4"  the L-stable SDIRK of order 4 with embedded order 3,
 //                gamma = 1/4 (Hairer & Wanner II, IV.6, Table 6.5), simplified
 //                Newton on (I - h gamma J), J by finite differences of f,
 //                reused across steps while Newton converges; error estimate
-//                filtered by (I - h gamma J)^-1 (HW II, IV.8, (8.20));
+//                filtered by (I - h gamma J)^-1 (HW II, IV.8, (8.20)); dense
+//                output by cubic Hermite interpolation (order 3);
 //      "rk4"     classical Runge-Kutta with the fixed step dt (no error control).
-//    The default, "sdirk4", copes with stiff problems.
+//    The default copes with stiff problems.
 //
 //  * System + Mechanism: the state y = (q, v) of a generated solver,
 //    f(y) = (qdot(q, v), qdd(q, v)) with qdd from forward_dynamics, and
@@ -72,7 +77,7 @@ struct OdeProblem {
 };
 
 struct Settings {
-  std::string method = "sdirk4";  ///< "sdirk4" (default), "dopri5", "rk4"
+  std::string method = "auto";  ///< "auto" (default), "sdirk4", "dopri5", "rk4"
   double rtol = 1e-6, atol = 1e-8;
   double dt = 0.0;       ///< rk4: the step (required); others: the first step (0: chosen, HNW II.4)
   double h_max = 0.0;    ///< largest step (0: t_end - t0)
@@ -87,6 +92,7 @@ struct Stats {
   long jacobians = 0;    ///< finite-difference Jacobians (sdirk4)
   long factorizations = 0;  ///< LU factorizations of I - h gamma J (sdirk4)
   long newton_failures = 0; ///< steps retried because Newton did not converge
+  long switches = 0;     ///< auto: 1 once it switched from dopri5 to sdirk4
   double t = 0.0;        ///< time reached
 };
 
@@ -132,8 +138,11 @@ enum class Stabilization { kProjection, kBaumgarte, kNone };
 struct MechanismSettings {
   Stabilization stabilization = Stabilization::kProjection;
   double alpha = 10.0, beta = 10.0;  ///< Baumgarte: Phi'' + 2 alpha Phi' + beta^2 Phi = 0
-  /// Projection: Newton iterations on Phi(q) = 0 stop when max |Phi| <=
-  /// phi_tol (absolute, the model's length unit) or after 8 iterations.
+  /// Projection: q is projected when max |Phi| > phi_tol / 100; Newton
+  /// iterations on Phi(q) = 0 run while they reduce
+  /// max |Phi| (at least by half) and it is above phi_tol / 100; ending
+  /// above phi_tol (absolute, the model's length unit: raise it for a model
+  /// measured in millimetres) or after 30 iterations is a Failure.
   double phi_tol = 1e-12;
 };
 
