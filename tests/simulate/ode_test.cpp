@@ -76,7 +76,8 @@ TEST(Dense, Dopri5EveryIsAccurateBetweenSteps) {
   EXPECT_EQ(rows, 301);  // t = 0, 0.01, ..., 3
   EXPECT_EQ(last_t, 3.0);
   EXPECT_LT(st.steps, 100);
-  EXPECT_LT(worst, 30 * 1e-9);
+  // Measured 1.2e-9, as at the step ends; asserted 5e-9.
+  EXPECT_LT(worst, 5e-9);
 }
 
 // Fixed-step RK4: error O(dt^4), halving dt divides it by about 16.

@@ -9,3 +9,10 @@ if(NOT JRGEN_TEST_SUBSET OR "gen_loops_fourbar_conservative" IN_LIST JRGEN_TEST_
   target_link_libraries(simulate_mechanism_test PRIVATE jrgen_model_cases jrgen_urdf
                         sim_double_pendulum sim_ball_floating gen_loops_fourbar_conservative)
 endif()
+
+# The simulator executable of add_jr_simulator() (INTERFACE.md section 7):
+# CSV header, rows, last stdout line, errors (check_simulator.cmake).
+add_jr_simulator(TARGET fourbar_sim URDF ${PROJECT_SOURCE_DIR}/models/fourbar.urdf NAMESPACE fourbar_sim)
+add_test(NAME simulate_cli_test
+         COMMAND ${CMAKE_COMMAND} -DSIM=$<TARGET_FILE:fourbar_sim> -DWORK=${CMAKE_CURRENT_BINARY_DIR}/simulate_cli
+                 -P ${CMAKE_CURRENT_SOURCE_DIR}/simulate/check_simulator.cmake)
