@@ -25,6 +25,7 @@
 #include "reference/reference_dynamics.hpp"
 #include "sim_ball_floating.hpp"
 #include "sim_double_pendulum.hpp"
+#include "sim_stiff_damped.hpp"
 #include "urdf/urdf_reader.hpp"
 
 namespace jrgen {
@@ -195,6 +196,39 @@ TEST(Mechanism, FourbarProjectionKeepsConstraintsBaumgarteDrifts) {
   // the projection's; it stays bounded (below 1e3 x tol).
   EXPECT_GT(baum.phi, 100 * proj[0].phi);
   EXPECT_LT(baum.phi, 1e3 * tol);
+}
+
+// A stiff mechanism (tests/simulate/stiff_damped_pendulum.urdf: the elbow's
+// damper relaxes at ~5e3 1/s): dopri5 is held to h ~ 3.3 / 5e3 by stability,
+// the default switches to sdirk4.  Both end within tolerance of a tight
+// sdirk4 reference (global error over a run whose fast mode decays: a few
+// tol x |y|; asserted 100 tol, measured printed).
+TEST(Mechanism, StiffDampedPendulumDefaultBeatsExplicit) {
+  const Mechanism m(JRGEN_SIM_SYSTEM(sim_sd));
+  const double q0[2] = {1.0, 0.5}, v0[2] = {0.0, 0.0};
+  const double t_end = 3.0, tol = 1e-6;
+  std::vector<double> ref = m.initial_state(q0, v0);
+  Settings sr;
+  sr.method = "sdirk4";
+  sr.rtol = sr.atol = 1e-11;
+  m.run(0.0, t_end, ref, sr);
+  long fd[2];
+  const char* methods[2] = {"dopri5", "auto"};
+  for (int k = 0; k < 2; ++k) {
+    Settings s;
+    s.method = methods[k];
+    s.rtol = s.atol = tol;
+    std::vector<double> y = m.initial_state(q0, v0);
+    const sim::Stats st = m.run(0.0, t_end, y, s);
+    double err = 0.0;
+    for (int i = 0; i < m.size(); ++i) err = std::max(err, std::abs(y[i] - ref[i]) / (1.0 + std::abs(ref[i])));
+    std::printf("stiff damped pendulum %s: steps %ld rejected %ld fd_calls %ld jacobians %ld switched %ld, error %.2e\n",
+                methods[k], st.steps, st.rejected, st.f_calls, st.jacobians, st.switches, err);
+    EXPECT_LT(err, 100 * tol);
+    fd[k] = st.f_calls;
+    if (k == 1) EXPECT_EQ(st.switches, 1);
+  }
+  EXPECT_LT(10 * fd[1], fd[0]);
 }
 
 TEST(Mechanism, SolverFailureNamesTimeAndJoint) {
