@@ -2,8 +2,8 @@
 // error-controlled methods, constraints kept by projection (and less so by
 // Baumgarte), quaternions of ball and floating joints, the assembled start.
 //
-// The potential energy here is the independent reference's (a local stand-in
-// for the generated potential_energy(), tests/reference), with the gravity
+// The energy uses the generated potential_energy(); the first test checks it
+// against the independent reference's (tests/reference) with the gravity
 // each solver was generated with.
 //
 // Energy asserts: with tolerance tol on every state component, the global
@@ -35,7 +35,7 @@ using sim::Mechanism;
 using sim::Settings;
 using sim::Stabilization;
 
-// Stand-ins for potential_energy(q), one per solver (plain function pointers).
+// The independent reference's potential energy, for the check below.
 struct Potential {
   ir::Robot robot;
   Eigen::Vector3d gravity;
@@ -44,34 +44,30 @@ struct Potential {
     return reference::potential_energy(robot, Eigen::Map<const Eigen::VectorXd>(q, nq), gravity);
   }
 };
-Potential g_dp, g_bf, g_fourbar;
 
-void init_potentials() {
-  static bool done = false;
-  if (done) return;
-  done = true;
-  g_dp = {urdf::read_robot(JRGEN_SOURCE_DIR "/tests/cli/double_pendulum.urdf"), {0, 0, -9.81}, sim_dp::nq};
-  g_bf = {urdf::read_robot(JRGEN_SOURCE_DIR "/tests/simulate/ball_floating.urdf"), {0, 0, -9.81}, sim_bf::nq};
-  g_fourbar = {testing::read_model_case(testing::find_model_case("loops_fourbar_conservative")), {0, -9.81, 0},
-               gen_loops_fourbar_conservative::nq};
-}
+sim::System double_pendulum() { return JRGEN_SIM_SYSTEM(sim_dp); }
+sim::System ball_floating() { return JRGEN_SIM_SYSTEM(sim_bf); }
+sim::System fourbar() { return JRGEN_SIM_SYSTEM(gen_loops_fourbar_conservative); }
 
-sim::System with_potential(sim::System s, double (*pe)(const double*)) {
-  s.potential_energy = pe;
-  return s;
-}
-
-sim::System double_pendulum() {
-  init_potentials();
-  return with_potential(JRGEN_SIM_SYSTEM(sim_dp), [](const double* q) { return g_dp(q); });
-}
-sim::System ball_floating() {
-  init_potentials();
-  return with_potential(JRGEN_SIM_SYSTEM(sim_bf), [](const double* q) { return g_bf(q); });
-}
-sim::System fourbar() {
-  init_potentials();
-  return with_potential(JRGEN_SIM_SYSTEM(gen_loops_fourbar_conservative), [](const double* q) { return g_fourbar(q); });
+// The generated potential_energy() (through JRGEN_SIM_SYSTEM) against the
+// reference at a few configurations: the same sum of m g . p_com, to
+// rounding (eps x the terms, ~1e-15 x 30 J).
+TEST(Mechanism, GeneratedPotentialEnergyMatchesReference) {
+  const Potential dp{urdf::read_robot(JRGEN_SOURCE_DIR "/tests/cli/double_pendulum.urdf"), {0, 0, -9.81}, sim_dp::nq};
+  const Potential bf{urdf::read_robot(JRGEN_SOURCE_DIR "/tests/simulate/ball_floating.urdf"), {0, 0, -9.81},
+                     sim_bf::nq};
+  const Potential fb{testing::read_model_case(testing::find_model_case("loops_fourbar_conservative")), {0, -9.81, 0},
+                     gen_loops_fourbar_conservative::nq};
+  const double q_dp[2] = {0.7, -1.1}, q_fb[3] = {0.3, -0.2, 0.4};
+  const double q_bf[11] = {0.9, 0.3, -0.2, 0.1, 0.1, 0.2, 0.3, 0.8, 0.1, 0.5, -0.2};
+  std::vector<double> qn(q_bf, q_bf + 11);
+  for (int i : {0, 7}) {  // the reference does not normalize
+    const double n = std::sqrt(qn[i] * qn[i] + qn[i + 1] * qn[i + 1] + qn[i + 2] * qn[i + 2] + qn[i + 3] * qn[i + 3]);
+    for (int k = 0; k < 4; ++k) qn[i + k] /= n;
+  }
+  EXPECT_NEAR(double_pendulum().potential_energy(q_dp), dp(q_dp), 1e-12);
+  EXPECT_NEAR(fourbar().potential_energy(q_fb), fb(q_fb), 1e-12);
+  EXPECT_NEAR(ball_floating().potential_energy(qn.data()), bf(qn.data()), 1e-12);
 }
 
 struct Trace {
@@ -82,6 +78,7 @@ struct Trace {
 Trace run(const Mechanism& m, std::vector<double> y, const Settings& s, double t_end) {
   Trace tr;
   tr.e0 = m.energy(y.data());
+  EXPECT_TRUE(std::isfinite(tr.e0));  // a NaN energy would pass every drift test
   const int nq = m.system().nq, nv = m.system().nv;
   tr.st = m.run(0.0, t_end, y, s, [&](double, const double* yy) {
     const double e = m.energy(yy);

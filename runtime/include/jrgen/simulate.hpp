@@ -127,8 +127,8 @@ struct System {
   void (*constraints)(const double* q, double* phi);
   void (*constraint_jacobian)(const double* q, double* Phiq);
   void (*constraint_gamma)(const double* q, const double* v, double* gamma);
-  /// Gravity + spring potential; nullptr when the solver has none (the
-  /// energy is then NaN).
+  /// Gravity + spring potential (INTERFACE.md section 2b); nullptr: the
+  /// energy is NaN.
   double (*potential_energy)(const double* q);
   const char* (*last_error)();
 };
@@ -200,15 +200,6 @@ class Mechanism {
   std::function<void(double, const double*, const double*, double*)> tau_;
 };
 
-namespace detail {
-// Fallback for solvers generated before potential_energy() existed: a
-// template loses overload resolution to the generated non-template function.
-template <class T>
-double potential_energy(const T*) {
-  return std::numeric_limits<double>::quiet_NaN();
-}
-}  // namespace detail
-
 }  // namespace jrgen::sim
 
 /// A jrgen::sim::System from the generated namespace `ns`.
@@ -216,11 +207,6 @@ double potential_energy(const T*) {
   ::jrgen::sim::System {                                                                              \
     ns::nq, ns::nv, ns::nc, ns::njoints, ns::joint_names, ns::joint_q_index, ns::joint_v_index,      \
         &ns::forward_dynamics, &ns::solve_augmented, &ns::mass_matrix, &ns::bias_forces,              \
-        &ns::constraints, &ns::constraint_jacobian, &ns::constraint_gamma,                           \
-        [](const double* q) -> double {                                                               \
-          using namespace ::jrgen::sim::detail;                                                       \
-          using namespace ns;                                                                         \
-          return potential_energy(q);                                                                 \
-        },                                                                                            \
+        &ns::constraints, &ns::constraint_jacobian, &ns::constraint_gamma, &ns::potential_energy,        \
         &ns::last_error                                                                               \
   }
