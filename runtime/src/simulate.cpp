@@ -50,8 +50,8 @@ struct Run {
   std::string last_rhs_error;  // the latest failure of f, for messages
   double t_next_out = 0.0;
   long k_out = 0;
-  double t = 0.0;  // time reached
-  double h = 0.0;  // step to continue with (0: choose one)
+  double t_now = 0.0;   // time reached
+  double h_next = 0.0;  // step to continue with (0: choose one)
 
   int f(double t, const Vec& y, Vec& dy) {
     ++st.f_calls;
@@ -130,7 +130,7 @@ void hermite(double ta, double tb, const Vec& ya, const Vec& fa, const Vec& yb, 
 }
 
 // ---- Dormand-Prince 5(4), HNW I, II.5 Table 5.2; dense output II.6 (6.12) -----
-// Integrates from r.t (and r.h if set); with `detect`, returns early when the
+// Integrates from r.t_now (with r.h_next if set); with `detect`, returns early when the
 // problem looks stiff: h |lambda| estimated as h |k7 - k6| / |y1 - y6| above
 // 3.25 (dopri5's stability boundary) on 15 accepted steps without 6
 // non-stiff steps in between (HNW I, II.10, as in Hairer's DOPRI5).
@@ -149,9 +149,9 @@ void dopri5(Run& r, Vec& y, bool detect) {
   const Eigen::Index n = y.size();
   Vec k1(n), k2(n), k3(n), k4(n), k5(n), k6(n), k7(n), yt(n), y1(n), err(n);
   Vec r1(n), r2(n), r3(n), r4(n), r5(n);
-  double& t = r.t;
+  double& t = r.t_now;
   r.f_accepted(t, y, k1);
-  double h = r.h > 0.0 ? r.h : initial_step(r, t, y, k1, 5);
+  double h = r.h_next > 0.0 ? r.h_next : initial_step(r, t, y, k1, 5);
   bool rejected_last = false;
   int stiff = 0, nonstiff = 0;
   while (t < r.t_end) {
@@ -208,7 +208,7 @@ void dopri5(Run& r, Vec& y, bool detect) {
     if (h_lambda > 3.25) {
       nonstiff = 0;
       if (++stiff == 15 && detect) {
-        r.h = h;
+        r.h_next = h;
         ++r.st.switches;
         return;
       }
@@ -297,10 +297,10 @@ void sdirk4(Run& r, Vec& y) {
   Newton nw;
   Vec f0(n), k[Sdirk4::s], Z(n), Zprev(n), known(n), y1(n), err(n), fa(n), fb(n);
   for (auto& ki : k) ki.resize(n);
-  double& t = r.t;
+  double& t = r.t_now;
   r.f_accepted(t, y, f0);
   fa = f0;
-  double h = r.h > 0.0 ? r.h : initial_step(r, t, y, f0, 4);
+  double h = r.h_next > 0.0 ? r.h_next : initial_step(r, t, y, f0, 4);
   bool rejected_last = false, f0_current = true;
   while (t < r.t_end) {
     h = r.clip(t, std::min(h, r.h_max()));
@@ -369,7 +369,7 @@ void rk4(Run& r, Vec& y) {
   if (!(r.s.dt > 0.0)) throw Failure(r.t0, "rk4 needs a step: give --dt (Settings::dt)");
   const Eigen::Index n = y.size();
   Vec k1(n), k2(n), k3(n), k4(n), yt(n), ya(n);
-  double& t = r.t;
+  double& t = r.t_now;
   r.f_accepted(t, y, k1);
   while (t < r.t_end) {
     const double h = r.clip(t, r.s.dt);
@@ -410,7 +410,7 @@ Stats integrate(const OdeProblem& problem, double t0, double t_end, std::vector<
   if (observe) observe(t0, yv.data());
   if (settings.method == "auto") {
     dopri5(r, yv, true);
-    if (r.t < t_end) sdirk4(r, yv);  // stiff from here on
+    if (r.t_now < t_end) sdirk4(r, yv);  // stiff from here on
   } else if (settings.method == "dopri5") {
     dopri5(r, yv, false);
   } else if (settings.method == "sdirk4") {
@@ -421,7 +421,7 @@ Stats integrate(const OdeProblem& problem, double t0, double t_end, std::vector<
     throw Failure(t0, "unknown integrator '" + settings.method + "' (use auto, sdirk4, dopri5 or rk4)");
   }
   Stats st = r.st;
-  st.t = r.t;
+  st.t = r.t_now;
   Eigen::Map<Vec>(y.data(), problem.n) = yv;
   return st;
 }
