@@ -53,3 +53,11 @@ foreach(case "--q0;1,2" "--v0;0,nan,0" "--integrator;euler" "--rtol;-1")
 endforeach()
 execute_process(COMMAND "${SIM}" --t-end 1 --q0 1,2 ERROR_VARIABLE err)
 expect("err MATCHES \"--q0: 2 values given, the model has nq = 3\"" "bad --q0 message: '${err}'")
+
+# 4. A failure of the generated solver during the run: the time and the joint.
+execute_process(COMMAND "${SIM}" --t-end 1 --v0 1e200,0,0 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+expect("NOT rc EQUAL 0" "--v0 1e200,0,0 exited 0")
+expect("err MATCHES \"^fourbar_sim: error: at t = 0: forward dynamics status 3: .*joint 'joint_A'\"" "overflow: '${err}'")
+string(REGEX MATCHALL "\n" newlines "${err}")
+list(LENGTH newlines lines)
+expect("lines EQUAL 1" "overflow: stderr is not one line: '${err}'")
