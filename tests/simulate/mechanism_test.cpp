@@ -95,7 +95,7 @@ Trace run(const Mechanism& m, std::vector<double> y, const Settings& s, double t
 TEST(Mechanism, DoublePendulumKeepsEnergy) {
   const Mechanism m(double_pendulum());
   const double q0[2] = {1.2, -0.7}, v0[2] = {0.5, 1.0};
-  for (const char* method : {"auto", "sdirk4", "dopri5"}) {
+  for (const char* method : {"auto", "radau5", "sdirk4", "dopri5"}) {
     for (double tol : {1e-6, 1e-9}) {
       Settings s;
       s.method = method;
@@ -117,11 +117,11 @@ TEST(Mechanism, BallAndFloatingJointsKeepEnergyAndUnitQuaternions) {
                          0.0, std::sin(b)};
   const double v0[9] = {1.0, -0.5, 2.0, 0.3, 0.1, 2.0, 3.0, -1.0, 5.0};
   Settings s;
-  s.method = "sdirk4";
+  s.method = "radau5";
   s.rtol = s.atol = 1e-9;
   std::vector<double> y = m.initial_state(q0, v0);
   const Trace tr = run(m, y, s, 2.0);
-  std::printf("ball+floating sdirk4: steps %ld fd_calls %ld, energy drift %.2e of %.2e\n", tr.st.steps, tr.st.f_calls,
+  std::printf("ball+floating radau5: steps %ld fd_calls %ld, energy drift %.2e of %.2e\n", tr.st.steps, tr.st.f_calls,
               tr.e_drift, tr.e_scale);
   EXPECT_LT(tr.e_drift, 100 * 1e-9 * tr.e_scale);
   m.run(0.0, 2.0, y, s);
@@ -155,9 +155,9 @@ TEST(Mechanism, FourbarProjectionKeepsConstraintsBaumgarteDrifts) {
   const double q0[3] = {gen_loops_fourbar_conservative::q_assembled[0] + 0.3, 0.0, 0.0};
   const double v0[3] = {2.0, 0.0, 0.0};
   const double tol = 1e-8;
-  Trace proj[3], baum, none;
-  const char* methods[3] = {"sdirk4", "dopri5", "auto"};
-  for (int k = 0; k < 3; ++k) {
+  Trace proj[4], baum, none;
+  const char* methods[4] = {"sdirk4", "dopri5", "auto", "radau5"};
+  for (int k = 0; k < 4; ++k) {
     const Mechanism m(fourbar());
     Settings s;
     s.method = methods[k];
@@ -197,7 +197,7 @@ TEST(Mechanism, FourbarProjectionKeepsConstraintsBaumgarteDrifts) {
 
 // A stiff mechanism (tests/simulate/stiff_damped_pendulum.urdf: the elbow's
 // damper relaxes at ~5e3 1/s): dopri5 is held to h ~ 3.3 / 5e3 by stability,
-// the default switches to sdirk4.  Both end within tolerance of a tight
+// the default switches to radau5.  Both end within tolerance of a tight
 // sdirk4 reference (global error over a run whose fast mode decays: a few
 // tol x |y|; asserted 100 tol, measured printed).
 TEST(Mechanism, StiffDampedPendulumDefaultBeatsExplicit) {

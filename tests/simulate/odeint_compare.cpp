@@ -148,6 +148,7 @@ int main() {
     for (double tol : {1e-6, 1e-8}) {
       run_jrgen(p, "auto", tol, ref);
       run_jrgen(p, "sdirk4", tol, ref);
+      run_jrgen(p, "radau5", tol, ref);
       run_jrgen(p, "dopri5", tol, ref);
       run_odeint_rosenbrock4(p, tol, ref);
       run_odeint_dopri5(p, tol, ref);

@@ -7,16 +7,20 @@
 //    usable on any ODE (the tests run them on ODEs with known solutions):
 //      "auto"    (default) dopri5 with Hairer's stiffness detection (h |lambda|
 //                above dopri5's stability boundary 3.25 on 15 accepted steps,
-//                HNW I, II.10); from then on sdirk4.  One way: a problem that
-//                stops being stiff stays with sdirk4.
+//                HNW I, II.10); from then on radau5.  One way: a problem that
+//                stops being stiff stays with radau5.
 //      "dopri5"  Dormand-Prince 5(4), explicit, FSAL, dense output of order 4
 //                (Hairer, Norsett & Wanner I, II.4-II.6);
+//      "radau5"  Radau IIA of order 5 (HW II, IV.5), simplified Newton on
+//                (I - h A (x) J) as one real LU of size 3n, J by finite
+//                differences of f, reused across steps while Newton
+//                converges; RADAU5's error estimate (HW II, IV.8 (8.19));
+//                dense output by the collocation polynomial;
 //      "sdirk4"  the L-stable SDIRK of order 4 with embedded order 3,
-//                gamma = 1/4 (Hairer & Wanner II, IV.6, Table 6.5), simplified
-//                Newton on (I - h gamma J), J by finite differences of f,
-//                reused across steps while Newton converges; error estimate
-//                filtered by (I - h gamma J)^-1 (HW II, IV.8, (8.20)); dense
-//                output by cubic Hermite interpolation (order 3);
+//                gamma = 1/4 (HW II, IV.6, Table 6.5), simplified Newton on
+//                (I - h gamma J) (size n), the same Jacobian reuse; error
+//                estimate filtered by (I - h gamma J)^-1 (HW II, IV.8 (8.20));
+//                dense output by cubic Hermite interpolation;
 //      "rk4"     classical Runge-Kutta with the fixed step dt (no error control).
 //    The default copes with stiff problems.
 //
@@ -77,7 +81,7 @@ struct OdeProblem {
 };
 
 struct Settings {
-  std::string method = "auto";  ///< "auto" (default), "sdirk4", "dopri5", "rk4"
+  std::string method = "auto";  ///< "auto" (default), "radau5", "sdirk4", "dopri5", "rk4"
   double rtol = 1e-6, atol = 1e-8;
   double dt = 0.0;       ///< rk4: the step (required); others: the first step (0: chosen, HNW II.4)
   double h_max = 0.0;    ///< largest step (0: t_end - t0)
@@ -89,10 +93,10 @@ struct Stats {
   long steps = 0;        ///< accepted steps
   long rejected = 0;     ///< rejected steps (error test or Newton failure)
   long f_calls = 0;      ///< evaluations of f, Jacobian columns included
-  long jacobians = 0;    ///< finite-difference Jacobians (sdirk4)
-  long factorizations = 0;  ///< LU factorizations of I - h gamma J (sdirk4)
+  long jacobians = 0;    ///< finite-difference Jacobians (radau5, sdirk4)
+  long factorizations = 0;  ///< LU factorizations of the Newton matrix (radau5, sdirk4)
   long newton_failures = 0; ///< steps retried because Newton did not converge
-  long switches = 0;     ///< auto: 1 once it switched from dopri5 to sdirk4
+  long switches = 0;     ///< auto: 1 once it switched from dopri5 to radau5
   double t = 0.0;        ///< time reached
 };
 
