@@ -215,7 +215,7 @@ void dopri5(Run& r, Vec& y, bool detect) {
     } else if (++nonstiff == 6) {
       stiff = 0;
     }
-    if (r.p.after_step) r.f_accepted(t, y, k1);  // y was stabilized: no FSAL
+    if (y != y1) r.f_accepted(t, y, k1);  // y was moved by after_step: no FSAL
     else k1 = k7;
   }
 }
