@@ -42,6 +42,10 @@
 //   jrgen::sim::Settings s;  s.rtol = 1e-8;  s.atol = 1e-10;
 //   jrgen::sim::Stats st = mech.run(0.0, 2.0, y, s, [&](double t, const double* y) { ... });
 //
+// Joint forces: Mechanism::set_forces(tau(t, q, v)) (default zero).  The
+// evaluation buffers are thread_local: runs on separate states may share a
+// const Mechanism across threads.
+//
 // Failures throw jrgen::sim::Failure, whose what() is one line naming the
 // time and, when the generated solver failed, its last_error() (the joint or
 // loop): step size underflow (Newton divergence included), a non-zero solver
