@@ -228,6 +228,23 @@ TEST(Mechanism, StiffDampedPendulumDefaultBeatsExplicit) {
   EXPECT_LT(10 * fd[1], fd[0]);
 }
 
+// Joint forces reach forward_dynamics: tau = h(q, v) (gravity compensation)
+// makes qdd = 0, so a pendulum released at rest stays where it is (to the
+// rounding of M^-1 (tau - h) = 0: 1e-15 per step).  Without them it falls.
+TEST(Mechanism, JointForcesFromSetForces) {
+  Mechanism m(double_pendulum());
+  const double q0[2] = {1.0, -0.5};
+  Settings s;
+  std::vector<double> y = m.initial_state(q0, nullptr);
+  m.set_forces([](double, const double* q, const double* v, double* tau) { sim_dp::bias_forces(q, v, tau); });
+  m.run(0.0, 1.0, y, s);
+  EXPECT_NEAR(y[0], 1.0, 1e-12);
+  EXPECT_NEAR(y[1], -0.5, 1e-12);
+  m.set_forces(nullptr);
+  m.run(0.0, 1.0, y, s);
+  EXPECT_GT(std::abs(y[0] - 1.0), 0.1);
+}
+
 TEST(Mechanism, SolverFailureNamesTimeAndJoint) {
   // A NaN velocity is status 3 from the generated solver, naming the joint.
   const Mechanism m(double_pendulum());
