@@ -8,10 +8,12 @@ if(NOT JRGEN_TEST_SUBSET OR "gen_loops_fourbar_conservative" IN_LIST JRGEN_TEST_
   add_jr_solver(TARGET sim_double_pendulum URDF ${PROJECT_SOURCE_DIR}/tests/cli/double_pendulum.urdf NAMESPACE sim_dp)
   add_jr_solver(TARGET sim_stiff_damped URDF ${CMAKE_CURRENT_SOURCE_DIR}/simulate/stiff_damped_pendulum.urdf
                 NAMESPACE sim_sd)
+  add_jr_solver(TARGET sim_stiff_spring URDF ${CMAKE_CURRENT_SOURCE_DIR}/simulate/stiff_spring_pendulum.urdf
+                NAMESPACE sim_ss)
   add_jr_solver(TARGET sim_ball_floating URDF ${CMAKE_CURRENT_SOURCE_DIR}/simulate/ball_floating.urdf NAMESPACE sim_bf)
   jrgen_test(simulate_mechanism_test simulate/mechanism_test.cpp)
   target_link_libraries(simulate_mechanism_test PRIVATE jrgen_model_cases jrgen_urdf
-                        sim_double_pendulum sim_stiff_damped sim_ball_floating gen_loops_fourbar_conservative)
+                        sim_double_pendulum sim_stiff_damped sim_stiff_spring sim_ball_floating gen_loops_fourbar_conservative)
 endif()
 
 # The simulator executable of add_jr_simulator() (INTERFACE.md section 7):
