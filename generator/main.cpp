@@ -75,7 +75,10 @@ constexpr const char* kHelp =
     "                        solves for the minimum-norm lambda by a proximal-point\n"
     "                        iteration, returns 0 and sets last_solve_regularized()\n"
     "                        (docs/singular.md)\n"
-    "  --help, --version\n";
+    "  --help, --version\n"
+    "\n"
+    "Documentation: README.md and docs/ in the jrgen source tree (docs/cli.md: these\n"
+    "options; docs/urdf.md, docs/coordinates.md, docs/api.md, docs/cmake.md).\n";
 
 struct Arguments {
   std::string model;

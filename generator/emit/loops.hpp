@@ -2,7 +2,7 @@
 // of Step 3 (3.1-3.5) of the algorithm of Section 4.3, for trees with cut
 // joints whose kept rows are known (analysis::analyze_constraints).
 // Defined in steps/step3.cpp (emit_loops, one unit per sub-step beside it),
-// steps/schur_pattern.cpp and plan.cpp (the limits); see README.md.
+// steps/schur_pattern.cpp and plan.cpp (the limits); see docs/trains.md and docs/scale.md.
 #pragma once
 
 #include <string>
