@@ -37,9 +37,10 @@ if(NOT JRGEN_TEST_SUBSET)
   add_jr_solver(TARGET sim_x_spring URDF ${_x}/spring_1e9.urdf NAMESPACE sim_x_spring)
   add_jr_solver(TARGET sim_x_pspring URDF ${_x}/point_spring_1e9.urdf NAMESPACE sim_x_pspring)
   add_jr_solver(TARGET sim_x_rope URDF ${_x}/rope50.urdf NAMESPACE sim_x_rope)
-  add_jr_solver(TARGET sim_x_par URDF ${_x}/parallelogram.urdf NAMESPACE sim_x_par)
-  add_jr_solver(TARGET sim_x_parp URDF ${_x}/parallelogram.urdf NAMESPACE sim_x_parp OPTIONS --singular proximal)
-  add_jr_solver(TARGET sim_x_toggle URDF ${_x}/near_toggle.urdf NAMESPACE sim_x_toggle)
+  add_jr_solver(TARGET sim_x_par URDF ${_x}/parallelogram.urdf NAMESPACE sim_x_par OPTIONS --gravity 0,-9.81,0)
+  add_jr_solver(TARGET sim_x_parp URDF ${_x}/parallelogram.urdf NAMESPACE sim_x_parp
+                OPTIONS --gravity 0,-9.81,0 --singular proximal)
+  add_jr_solver(TARGET sim_x_toggle URDF ${_x}/near_toggle.urdf NAMESPACE sim_x_toggle OPTIONS --gravity 0,-9.81,0)
   add_jr_solver(TARGET sim_x_top URDF ${_x}/top.urdf NAMESPACE sim_x_top)
   set(_x_solvers sim_x_dp6 sim_x_dp9 sim_x_dph6 sim_x_dp15 sim_x_spring sim_x_pspring sim_x_rope sim_x_par
                  sim_x_parp sim_x_toggle sim_x_top)
