@@ -33,14 +33,16 @@ size_t note(std::vector<std::string>& failures, const std::string& what) {
   return failures.size();
 }
 
-// One cell of the compact table: error / energy drift / fd_calls, or the
+// One cell of the compact table: error / energy drift / fd_calls / CPU ms, or the
 // failure's status and time (the message is listed below the table).
 std::string cell(const Result& r, std::vector<std::string>& failures) {
   std::string out;
   if (!r.ok) {
     out = "**failed** at t = " + fmt(r.t_fail) + " (" + std::to_string(note(failures, r.failure)) + ")";
   } else {
-    out = fmt(r.err) + " / " + fmt(r.e_drift) + " / " + std::to_string(r.st.f_calls);
+    char ms[32];
+    std::snprintf(ms, sizeof ms, "%.3g", 1e3 * r.cpu_s);
+    out = fmt(r.err) + " / " + fmt(r.e_drift) + " / " + std::to_string(r.st.f_calls) + " / " + ms;
     if (r.st.switches) out += " (sw)";
   }
   if (r.nonfinite) out += " NON-FINITE OUTPUT";
@@ -82,7 +84,8 @@ int main(int argc, char** argv) {
     std::printf("| case | integrator | tol | error | energy drift | L_z drift | max abs Phi | max abs Phiq v | steps "
                 "(rejected) | fd_calls | switched | CPU s | failure |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   else
-    std::printf("| case (reference) | tol | dopri5 | radau5 | sdirk4 | auto |\n|---|---|---|---|---|---|\n");
+    std::printf("| case (reference) | tol | dopri5 | radau5 | sdirk4 | auto | max abs Phi, Phiq v |\n"
+                "|---|---|---|---|---|---|---|\n");
   std::vector<std::string> failures;
   for (const Case& c : cases) {
     if (!only.empty() && c.name.find(only) == std::string::npos) continue;
@@ -97,11 +100,15 @@ int main(int argc, char** argv) {
     }
     for (double tol : kTols) {
       std::string line = "| " + c.name + " (" + what + ") | " + fmt(tol);
+      double phi = 0.0, phiqv = 0.0;
       for (const char* method : kMethods) {
         const Result r = measure(c, method, tol, &ref);
         if (full) full_row(c, method, tol, r);
         line += " | " + cell(r, failures);
+        phi = std::max(phi, r.phi);
+        phiqv = std::max(phiqv, r.phiqv);
       }
+      line += c.sys.nc == 0 ? " | (tree)" : " | " + fmt(phi) + ", " + fmt(phiqv);
       if (!full) std::printf("%s |\n", line.c_str());
       std::fflush(stdout);
     }
