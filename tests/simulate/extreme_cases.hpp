@@ -14,10 +14,12 @@
 #include <string>
 #include <vector>
 
+#include "sim_x_dp12.hpp"
 #include "sim_x_dp15.hpp"
 #include "sim_x_dp6.hpp"
 #include "sim_x_dp9.hpp"
 #include "sim_x_dph6.hpp"
+#include "sim_x_dph9.hpp"
 #include "sim_x_par.hpp"
 #include "sim_x_parp.hpp"
 #include "sim_x_pspring.hpp"
@@ -137,6 +139,10 @@ inline Case double_pendulum(const std::string& name, const sim::System& sys) {
 
 inline Case light_tip_1e6() { return double_pendulum("double pendulum, tip 1e-6 kg", JRGEN_SIM_SYSTEM(sim_x_dp6)); }
 inline Case light_tip_1e9() { return double_pendulum("double pendulum, tip 1e-9 kg", JRGEN_SIM_SYSTEM(sim_x_dp9)); }
+inline Case light_tip_1e12() {
+  return double_pendulum("double pendulum, tip 1e-12 kg", JRGEN_SIM_SYSTEM(sim_x_dp12));
+}
+inline Case heavy_tip_1e9() { return double_pendulum("double pendulum, tip 1e9 kg", JRGEN_SIM_SYSTEM(sim_x_dph9)); }
 inline Case heavy_tip_1e6() { return double_pendulum("double pendulum, tip 1e6 kg", JRGEN_SIM_SYSTEM(sim_x_dph6)); }
 inline Case light_tip_1e15() {
   return double_pendulum("double pendulum, tip 1e-15 kg", JRGEN_SIM_SYSTEM(sim_x_dp15));

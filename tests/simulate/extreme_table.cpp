@@ -77,7 +77,8 @@ int main(int argc, char** argv) {
     if (std::string(argv[i]) == "--full") full = true;
     else only = argv[i];
   }
-  const Case cases[] = {light_tip_1e6(), light_tip_1e9(), heavy_tip_1e6(), light_tip_1e15(), spring_1e9(),
+  const Case cases[] = {light_tip_1e6(), light_tip_1e9(), light_tip_1e12(), light_tip_1e15(), heavy_tip_1e6(),
+                        heavy_tip_1e9(), spring_1e9(),
                         point_spring_1e9(), rope50(), rope50(M_PI / 2), parallelogram(false), parallelogram(true),
                         near_toggle(), top(100), top(1000), top(10000)};
   if (full)

@@ -27,12 +27,12 @@ Result checked(const Case& c, const char* method, double tol, const Vec& ref) {
   return r;
 }
 
-// Mass ratios 1e6 and 1e9 (light tip) and 1e6 (heavy tip): the generated
+// Mass ratios 1e6, 1e9, 1e12 (light tip) and 1e6, 1e9 (heavy tip): the generated
 // solver keeps the light tip's digits (docs/extreme.md), and so the
 // integrators keep the light tip's trajectory to their tolerance.
 TEST(ExtremeTime, MassRatiosKeepTheTolerance) {
   const double tol = 1e-7;
-  for (const Case& c : {light_tip_1e6(), light_tip_1e9(), heavy_tip_1e6()}) {
+  for (const Case& c : {light_tip_1e6(), light_tip_1e9(), light_tip_1e12(), heavy_tip_1e6(), heavy_tip_1e9()}) {
     const Vec ref = reference(c);
     for (const char* method : {"auto", "radau5"}) {
       const Result r = checked(c, method, tol, ref);

@@ -73,7 +73,9 @@ def rope(n):
 
 double_pendulum("dp_light_tip_1e6", 1, 1e-6, "Mass ratio 1e6, light tip.")
 double_pendulum("dp_light_tip_1e9", 1, 1e-9, "Mass ratio 1e9, light tip.")
+double_pendulum("dp_light_tip_1e12", 1, 1e-12, "Mass ratio 1e12, light tip.")
 double_pendulum("dp_heavy_tip_1e6", 1, 1e6, "Mass ratio 1e6, heavy tip.")
+double_pendulum("dp_heavy_tip_1e9", 1, 1e9, "Mass ratio 1e9, heavy tip.")
 double_pendulum("dp_light_tip_1e15", 1, 1e-15,
                 "Mass ratio 1e15, light tip: beyond the generated solver's digit test (status 1).")
 rope(50)
