@@ -75,6 +75,7 @@ inline Result measure(const Case& c, const std::string& method, double tol, cons
     y = m.initial_state(c.q0.data(), c.v0.data());
   } catch (const sim::Failure& f) {
     r.failure = f.what();
+    r.t_fail = f.t;
     return r;
   }
   const double e0 = m.energy(y.data());
@@ -213,11 +214,13 @@ inline double parallelogram_theta(double theta0, double w0, double t_end, const 
 /// Parallelogram four-bar in its plane of gravity, released at theta = 0.3
 /// with 1 rad/s: it swings through its change points theta = pi/2 (first
 /// at t = 0.57) and 3 pi/2 and back (theta between 0.3 and 2 pi - 0.3).
-inline Case parallelogram(bool proximal) {
+/// With `flat`: released at the change point itself, theta = pi/2, 1 rad/s.
+inline Case parallelogram(bool proximal, bool flat = false) {
   Case c;
   c.name = proximal ? "parallelogram, --singular proximal" : "parallelogram";
+  if (flat) c.name += ", started flat";
   c.sys = proximal ? JRGEN_SIM_SYSTEM(sim_x_parp) : JRGEN_SIM_SYSTEM(sim_x_par);
-  const double th = 0.3, w = 1.0;
+  const double th = flat ? M_PI / 2 : 0.3, w = 1.0;
   c.q0 = {th, -th, th};
   c.v0 = {w, -w, w};
   c.t_end = 3.0;

@@ -80,6 +80,7 @@ int main(int argc, char** argv) {
   const Case cases[] = {light_tip_1e6(), light_tip_1e9(), light_tip_1e12(), light_tip_1e15(), heavy_tip_1e6(),
                         heavy_tip_1e9(), spring_1e9(),
                         point_spring_1e9(), rope50(), rope50(M_PI / 2), parallelogram(false), parallelogram(true),
+                        parallelogram(false, true), parallelogram(true, true),
                         near_toggle(), top(100), top(1000), top(10000)};
   if (full)
     std::printf("| case | integrator | tol | error | energy drift | L_z drift | max abs Phi | max abs Phiq v | steps "

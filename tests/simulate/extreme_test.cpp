@@ -149,6 +149,25 @@ TEST(ExtremeTime, ParallelogramThroughItsChangePoints) {
   EXPECT_NEAR(parallelogram_theta(0.3, 1.0, s.t_fail), M_PI / 2, 1e-4) << s.failure;
 }
 
+// Released at the change point itself.  Without --singular proximal the
+// velocity projection of the start fails: status 2 naming the loop, t = 0.
+// With it, auto at 1e-7 follows the reduced equation (table: 0.8 tol).
+// radau5 at 1e-10 stays in the regularized band and ends in a named step
+// size underflow.
+TEST(ExtremeTime, ParallelogramStartedAtItsChangePoint) {
+  const Result d = checked(parallelogram(false, true), "auto", 1e-7, {});
+  ASSERT_FALSE(d.ok);
+  EXPECT_EQ(d.t_fail, 0.0);
+  EXPECT_NE(d.failure.find("projection onto Phiq v = 0: solver status 2"), std::string::npos) << d.failure;
+  EXPECT_NE(d.failure.find("loop joint 'pin'"), std::string::npos) << d.failure;
+  const Result p = checked(parallelogram(true, true), "auto", 1e-7, {});
+  ASSERT_TRUE(p.ok) << p.failure;
+  EXPECT_LT(p.err, 100 * 1e-7);
+  const Result u = checked(parallelogram(true, true), "radau5", 1e-10, {});
+  ASSERT_FALSE(u.ok);
+  EXPECT_NE(u.failure.find("step size underflow"), std::string::npos) << u.failure;
+}
+
 // 1e-3 from the change point (rocker 1.001 m), swinging in its plane of
 // gravity past its near-flat configurations: the tolerance is kept (table:
 // 7 tol with auto) and so are the constraints (projection, 1e-12).
