@@ -22,3 +22,32 @@ add_jr_simulator(TARGET fourbar_sim URDF ${PROJECT_SOURCE_DIR}/models/fourbar.ur
 add_test(NAME simulate_cli_test
          COMMAND ${CMAKE_COMMAND} -DSIM=$<TARGET_FILE:fourbar_sim> -DWORK=${CMAKE_CURRENT_BINARY_DIR}/simulate_cli
                  -P ${CMAKE_CURRENT_SOURCE_DIR}/simulate/check_simulator.cmake)
+
+# Extreme cases in time (issue 21 item 4; docs/simulation.md "Extreme cases in
+# time"): mass ratios, 1e9 N/m springs, a 50-link rope, a four-bar through
+# and near its change point, a fast top.  extreme_test asserts;
+# simulate_extreme_table (not built by default, not a test) prints the
+# docs' table: cmake --build build --target simulate_extreme_table.
+if(NOT JRGEN_TEST_SUBSET)
+  set(_x ${CMAKE_CURRENT_SOURCE_DIR}/simulate/extreme)
+  add_jr_solver(TARGET sim_x_dp6 URDF ${_x}/dp_light_tip_1e6.urdf NAMESPACE sim_x_dp6)
+  add_jr_solver(TARGET sim_x_dp9 URDF ${_x}/dp_light_tip_1e9.urdf NAMESPACE sim_x_dp9)
+  add_jr_solver(TARGET sim_x_dp12 URDF ${_x}/dp_light_tip_1e12.urdf NAMESPACE sim_x_dp12)
+  add_jr_solver(TARGET sim_x_dph6 URDF ${_x}/dp_heavy_tip_1e6.urdf NAMESPACE sim_x_dph6)
+  add_jr_solver(TARGET sim_x_dph9 URDF ${_x}/dp_heavy_tip_1e9.urdf NAMESPACE sim_x_dph9)
+  add_jr_solver(TARGET sim_x_dp15 URDF ${_x}/dp_light_tip_1e15.urdf NAMESPACE sim_x_dp15)
+  add_jr_solver(TARGET sim_x_spring URDF ${_x}/spring_1e9.urdf NAMESPACE sim_x_spring)
+  add_jr_solver(TARGET sim_x_pspring URDF ${_x}/point_spring_1e9.urdf NAMESPACE sim_x_pspring)
+  add_jr_solver(TARGET sim_x_rope URDF ${_x}/rope50.urdf NAMESPACE sim_x_rope)
+  add_jr_solver(TARGET sim_x_par URDF ${_x}/parallelogram.urdf NAMESPACE sim_x_par OPTIONS --gravity 0,-9.81,0)
+  add_jr_solver(TARGET sim_x_parp URDF ${_x}/parallelogram.urdf NAMESPACE sim_x_parp
+                OPTIONS --gravity 0,-9.81,0 --singular proximal)
+  add_jr_solver(TARGET sim_x_toggle URDF ${_x}/near_toggle.urdf NAMESPACE sim_x_toggle OPTIONS --gravity 0,-9.81,0)
+  add_jr_solver(TARGET sim_x_top URDF ${_x}/top.urdf NAMESPACE sim_x_top)
+  set(_x_solvers sim_x_dp6 sim_x_dp9 sim_x_dp12 sim_x_dph6 sim_x_dph9 sim_x_dp15 sim_x_spring sim_x_pspring sim_x_rope sim_x_par
+                 sim_x_parp sim_x_toggle sim_x_top)
+  jrgen_test(simulate_extreme_test simulate/extreme_test.cpp)
+  target_link_libraries(simulate_extreme_test PRIVATE jrgen_runtime ${_x_solvers})
+  add_executable(simulate_extreme_table EXCLUDE_FROM_ALL simulate/extreme_table.cpp)
+  target_link_libraries(simulate_extreme_table PRIVATE jrgen_runtime ${_x_solvers})
+endif()
