@@ -19,6 +19,7 @@
 // the state fields empty).  Timing goes to stdout (rank 0), not to the CSV.
 #include <mpi.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cinttypes>
 #include <cstdint>

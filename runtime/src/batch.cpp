@@ -42,8 +42,8 @@ namespace {
 // q0 and v0 of a run, checked against the mechanism's sizes.
 void check_sizes(const Mechanism& mech, const RunSpec& spec) {
   const System& s = mech.system();
-  auto bad = [](const char* what, std::size_t got, int want) {
-    return Failure(0.0, std::string("run input: ") + what + " has " + std::to_string(got) + " values, the mechanism " +
+  auto bad = [&spec](const char* what, std::size_t got, int want) {
+    return Failure(spec.t0, std::string("run input: ") + what + " has " + std::to_string(got) + " values, the mechanism " +
                             std::to_string(want) + " (give all of them, or none for the default)");
   };
   if (!spec.q0.empty() && spec.q0.size() != static_cast<std::size_t>(s.nq)) throw bad("q0", spec.q0.size(), s.nq);
