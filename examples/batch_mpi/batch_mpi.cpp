@@ -16,10 +16,11 @@
 //
 // CSV: run,status,t,q0,...,v0,...,energy,phi_norm,phiqv_norm,steps,rejected,fd_calls,error
 // (status 0: reached its t_end; 1: failed, error = the one-line message and
-// the state fields empty).  Timing goes to stdout (rank 0), not to the CSV.
+// the state fields empty; --nan-run K makes run K fail, the others go on).  Timing goes to stdout (rank 0), not to the CSV.
 #include <mpi.h>
 
 #include <cerrno>
+#include <cmath>
 #include <chrono>
 #include <cinttypes>
 #include <cstdint>
@@ -43,6 +44,7 @@ struct Options {
   std::uint64_t seed = 1;
   double v_max = 5.0;
   bool serial = false;
+  long nan_run = -1;  ///< --nan-run K: run K gets a NaN in v0 (a failing run, for the test)
   std::string output = "runs.csv";
   sim::Settings settings;
 };
@@ -50,7 +52,7 @@ struct Options {
 [[noreturn]] void usage(const char* msg) {
   std::fprintf(stderr,
                "jrgen_batch_mpi: error: %s\nusage: jrgen_batch_mpi [--runs N] [--threads T] [--t-end T] "
-               "[--seed S] [--v-max V] [--integrator M] [--rtol R] [--atol A] [--serial] [--output FILE.csv]\n",
+               "[--seed S] [--v-max V] [--integrator M] [--rtol R] [--atol A] [--serial] [--nan-run K] [--output FILE.csv]\n",
                msg);
   MPI_Abort(MPI_COMM_WORLD, 2);
   std::exit(2);
@@ -75,6 +77,7 @@ Options parse(int argc, char** argv) {
     else if (a == "--rtol") o.settings.rtol = std::atof(v);
     else if (a == "--atol") o.settings.atol = std::atof(v);
     else if (a == "--output") o.output = v;
+    else if (a == "--nan-run") o.nan_run = std::atol(v);
     else usage(("unknown option " + a).c_str());
   }
   if (o.runs < 1 || o.threads < 1 || !(o.t_end > 0.0)) usage("--runs and --threads must be >= 1, --t-end > 0");
@@ -98,6 +101,7 @@ sim::RunSpec make_run(const Options& o, long i) {
   r.q0.assign(batch_fourbar::q_assembled, batch_fourbar::q_assembled + batch_fourbar::nq);
   for (int k = 0; k < batch_fourbar::nv; ++k) r.v0.push_back(o.v_max * (2.0 * uniform01(state) - 1.0));
   r.t_end = o.t_end * (0.5 + 0.5 * uniform01(state));
+  if (i == o.nan_run) r.v0[0] = std::nan("");
   return r;
 }
 
