@@ -59,7 +59,8 @@ struct RunResult {
 void parallel_for(std::size_t n, int threads, const std::function<void(std::size_t i)>& work);
 
 /// One run as run_batch does it (the serial reference).  `default_q0`: the
-/// q of a RunSpec with an empty q0 (nullptr: zero).
+/// q of a RunSpec with an empty q0 (nullptr: zero, which is no unit
+/// quaternion: pass the generated q_assembled for ball or floating joints).
 RunResult run_one(const Mechanism& mech, const RunSpec& spec, const Settings& settings,
                   const double* default_q0 = nullptr);
 
