@@ -120,14 +120,15 @@ foreach(f "${jrgen_exe}"
           "${prefix}/${LIBDIR}/cmake/jrgen/jrgenTargets.cmake"
           "${prefix}/${LIBDIR}/cmake/jrgen/jrgen_solver.cmake"
           "${prefix}/${LIBDIR}/cmake/jrgen/jrgen_simulator_main.cpp.in"
-          "${prefix}/${INCLUDEDIR}/jrgen/simulate.hpp")
+          "${prefix}/${INCLUDEDIR}/jrgen/simulate.hpp"
+          "${prefix}/${INCLUDEDIR}/jrgen/batch.hpp")
   if(NOT EXISTS "${f}")
     message(FATAL_ERROR "install: ${f} is missing")
   endif()
 endforeach()
 file(READ "${prefix}/${LIBDIR}/cmake/jrgen/jrgenTargets.cmake" targets)
 foreach(re "add_executable\\(jrgen::jrgen IMPORTED\\)" "add_library\\(jrgen::runtime STATIC IMPORTED\\)"
-           "INTERFACE_LINK_LIBRARIES \"Eigen3::Eigen\"")
+           "INTERFACE_LINK_LIBRARIES \"Eigen3::Eigen;Threads::Threads\"")  # Threads: jrgen/batch.hpp
   if(NOT targets MATCHES "${re}")
     message(FATAL_ERROR "install: jrgenTargets.cmake does not match '${re}'")
   endif()

@@ -50,4 +50,28 @@ if(NOT JRGEN_TEST_SUBSET)
   target_link_libraries(simulate_extreme_test PRIVATE jrgen_runtime ${_x_solvers})
   add_executable(simulate_extreme_table EXCLUDE_FROM_ALL simulate/extreme_table.cpp)
   target_link_libraries(simulate_extreme_table PRIVATE jrgen_runtime ${_x_solvers})
+
+# ---- many runs (jrgen/batch.hpp; docs/simulation.md "Many runs: threads and MPI") ----
+jrgen_test(simulate_batch_test simulate/batch_test.cpp)
+target_link_libraries(simulate_batch_test PRIVATE fourbar_sim_dyn)
+
+# The MPI example (examples/batch_mpi) and its bitwise test, when MPI is found.
+find_package(MPI COMPONENTS CXX)
+if(MPI_CXX_FOUND AND MPIEXEC_EXECUTABLE)
+  add_subdirectory(${PROJECT_SOURCE_DIR}/examples/batch_mpi ${CMAKE_CURRENT_BINARY_DIR}/batch_mpi)
+  # Open MPI refuses root without --allow-run-as-root (CI runs as root) and
+  # more ranks than cores without --oversubscribe.
+  execute_process(COMMAND "${MPIEXEC_EXECUTABLE}" --version OUTPUT_VARIABLE _mpi_version ERROR_QUIET)
+  set(_mpi_flags "")
+  if(_mpi_version MATCHES "Open MPI|OpenRTE")
+    set(_mpi_flags --allow-run-as-root,--oversubscribe)  # ','-separated: one argument below
+  endif()
+  add_test(NAME simulate_batch_mpi
+           COMMAND ${CMAKE_COMMAND} -DEXE=$<TARGET_FILE:jrgen_batch_mpi> -DMPIEXEC=${MPIEXEC_EXECUTABLE}
+                   "-DMPIFLAGS=${_mpi_flags}" -DWORK=${CMAKE_CURRENT_BINARY_DIR}/simulate_batch_mpi
+                   -P ${CMAKE_CURRENT_SOURCE_DIR}/simulate/check_batch_mpi.cmake)
+  set_tests_properties(simulate_batch_mpi PROPERTIES TIMEOUT 600)
+else()
+  message(STATUS "MPI (C++) not found: examples/batch_mpi and the test simulate_batch_mpi are skipped "
+                 "(Debian: apt-get install openmpi-bin libopenmpi-dev)")
 endif()
