@@ -50,6 +50,7 @@ if(NOT JRGEN_TEST_SUBSET)
   target_link_libraries(simulate_extreme_test PRIVATE jrgen_runtime ${_x_solvers})
   add_executable(simulate_extreme_table EXCLUDE_FROM_ALL simulate/extreme_table.cpp)
   target_link_libraries(simulate_extreme_table PRIVATE jrgen_runtime ${_x_solvers})
+endif()
 
 # ---- many runs (jrgen/batch.hpp; docs/simulation.md "Many runs: threads and MPI") ----
 jrgen_test(simulate_batch_test simulate/batch_test.cpp)
