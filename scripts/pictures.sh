@@ -3,7 +3,20 @@
 # the HMMWV's topology graph (--graph, Graphviz) and the patterns of L, T and
 # T^T T (--sparsity), as in the paper's Figures 3 and 4.
 #   scripts/pictures.sh [BUILD_DIR]     (default: build; needs its jrgen)
+#   scripts/pictures.sh --report REPORT_DIR
+#     copies the solver report's plots (scripts/report.sh: time against model
+#     size, error against run time; REPORT_DIR/plots/*.png) and its report.md
+#     into docs/pictures/report/, where the README and docs link them.
 set -euo pipefail
+if [ "${1:-}" = "--report" ]; then
+  src="${2:?pictures.sh --report REPORT_DIR}"
+  dst="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/docs/pictures/report"
+  [ -d "$src/plots" ] || { echo "pictures.sh: $src/plots not found: run scripts/report.sh first" >&2; exit 1; }
+  mkdir -p "$dst" && rm -f "$dst"/*.png
+  cp "$src"/plots/*.png "$dst"/ && cp "$src/report.md" "$dst/report.md"
+  echo "pictures.sh: copied $(ls "$dst"/*.png | wc -l) plots to $dst" >&2
+  exit 0
+fi
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${1:-$root/build}"
 jrgen="$build/generator/jrgen"
