@@ -420,7 +420,9 @@ int run(const Arguments& args) {
     // A misspelling the reader noted (<inertail>: no mass) often explains
     // the error; the one line names it.
     if (robot.notes.empty()) throw;
-    throw jrgen::Error(std::string(e.what()) + " (perhaps because " + robot.notes.front() + ")");
+    std::string note = robot.notes.front();  // "file:line: <link> ...": the model's file goes without saying
+    if (note.rfind(args.model + ":", 0) == 0) note = "of line " + note.substr(args.model.size() + 1);
+    throw jrgen::Error(std::string(e.what()) + " (perhaps because " + note + ")");
   }
 
   const fs::path cpp_path(args.output);

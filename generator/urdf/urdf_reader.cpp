@@ -145,7 +145,11 @@ std::optional<std::vector<double>> read_numbers(const Doc& doc, const TiXmlEleme
                  where + ": " + quote(std::string(token)) + " is not a number" +
                      (token.find('$') != std::string_view::npos
                           ? "; this looks like unexpanded xacro, run xacro first"
-                          : ""));
+                      : token.find(',') != std::string_view::npos
+                          ? "; URDF separates numbers by spaces and writes decimals with '.'"
+                      : token.find('&') != std::string_view::npos || token.back() == ';'  // TinyXML drops '&'
+                          ? "; jrgen does not expand XML entities (<!ENTITY> in a <!DOCTYPE>): write the number"
+                          : "; write a number such as 0.5"));
       case NumberStatus::NotFinite:
         doc.fail(e, owner,
                  where + ": " + quote(std::string(token)) +
@@ -372,9 +376,30 @@ void check_xml_text(const Doc& doc, const std::string& xml) {
   }
 }
 
+// TinyXML ends a <!DOCTYPE> at its first '>', which may lie inside an
+// internal subset ("<!DOCTYPE robot [ <!ENTITY l \"1\"> ]>"): the rest of the
+// document was lost and the error read "no <robot> element" although there
+// is one.  The declaration is blanked out (its newlines kept, so that line
+// numbers stay right); its entities are not expanded (read_numbers says so).
+std::string without_doctype(std::string xml) {
+  const std::size_t at = xml.find("<!DOCTYPE");
+  if (at == std::string::npos) return xml;
+  int depth = 0;
+  std::size_t end = at + 9;
+  for (; end < xml.size(); ++end) {
+    if (xml[end] == '[') ++depth;
+    else if (xml[end] == ']') --depth;
+    else if (xml[end] == '>' && depth <= 0) break;
+  }
+  if (end == xml.size()) return xml;  // unterminated: TinyXML reports it
+  for (std::size_t k = at; k <= end; ++k)
+    if (xml[k] != '\n') xml[k] = ' ';
+  return xml;
+}
+
 void parse_xml(const Doc& doc, const std::string& xml, TiXmlDocument& out) {
   check_xml_text(doc, xml);
-  out.Parse(xml.c_str(), nullptr, TIXML_ENCODING_UTF8);
+  out.Parse(without_doctype(xml).c_str(), nullptr, TIXML_ENCODING_UTF8);
   if (out.Error()) {
     const int row = out.ErrorRow() > 0 ? out.ErrorRow() : 0;
     throw Error(ir::SourceLocation{doc.file, row}, "", "",

@@ -613,6 +613,23 @@ const char* const kCutsBaseRobotForNotes = R"(<robot name="ok">
   <transmission name="t"/><material name="m"/>
 </robot>)";
 
+// A <!DOCTYPE> with an internal subset: TinyXML alone lost the document
+// after the subset's first '>' ("no <robot> element").  Lines stay right.
+TEST(UrdfReader, DoctypeWithInternalSubset) {
+  const char* xml = R"(<?xml version="1.0"?>
+<!DOCTYPE robot [
+  <!ENTITY len "1.0">
+]>
+<robot name="r">
+  <link name="base"/>
+  <link name="arm"/>
+  <joint name="j" type="revolute"><parent link="base"/><child link="arm"/></joint>
+</robot>)";
+  const ir::Robot robot = read_robot_string(xml, "doctype.urdf");
+  ASSERT_EQ(robot.joints.size(), 1u);
+  EXPECT_EQ(robot.joints[0].where.line, 8);
+}
+
 TEST(UrdfReaderErrors, FullMessageFormat) {
   // The full text once; the folder cases below check substrings.
   const std::string path = (kErrorsDir / "unknown_link.urdf").string();
