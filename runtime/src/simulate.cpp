@@ -564,16 +564,11 @@ void rk4(Run& r, Vec& y) {
 
 }  // namespace
 
-// What to do about a failed solve of status 1, 2 or 3 (docs/status.md).
+// What to do about a failed solve of status 3 in a simulation (the solvers'
+// messages of status 1 and 2 name their fixes themselves; docs/status.md).
 static std::string status_hint(int status) {
-  switch (status) {
-    case 1: return "; check the inertials of the links this joint moves, or regenerate with --bound-mass and "
-                   "--bound-inertia (docs/status.md)";
-    case 2: return "; a singular configuration of the loops: regenerate with --singular proximal to pass through "
-                   "it (docs/status.md)";
-    case 3: return "; a NaN or infinity in the state: check --q0 and --v0, or tighten --rtol/--atol (--dt for rk4)";
-    default: return "";
-  }
+  return status == 3 ? "; a NaN or infinity in the state: check --q0 and --v0, or tighten --rtol/--atol (--dt for rk4)"
+                     : "";
 }
 
 Failure::Failure(double time, const std::string& what) : std::runtime_error(fmt_time(time) + ": " + what), t(time) {}
