@@ -758,8 +758,8 @@ ConstraintAnalysis analyze_constraints(const ir::Robot& robot, topology::Tree& t
                       cut.rows, ir::cut_type_name(cut.type), list);
       if (strict)
         throw Error(ic.where, cut_element(ic), ic.name,
-                    what + " (--strict-constraints); use a loop joint type with fewer rows (docs/urdf.md), or "
-                           "leave out --strict-constraints to drop them");
+                    what + " (--strict-constraints); leave the option out to let jrgen drop them (docs/urdf.md, "
+                           "redundant rows)");
       out.notes.push_back(Error(ic.where, cut_element(ic), ic.name, what + "; dropped").what());
     }
     cut.kept_rows = kept;

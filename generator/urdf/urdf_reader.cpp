@@ -731,9 +731,20 @@ RobotXml read_robot_xml(const Doc& doc, const TiXmlDocument& xml, const ReadOpti
   for (const TiXmlElement* e = root->FirstChildElement(); e; e = e->NextSiblingElement())
     if (is_tag(e, "link")) read_link_xml(doc, e, robot, options);
   note_misspellings(doc, root, Owner{"robot", robot.name}, robot.notes);
+  // <xacro:include>, <xacro:macro>, ...: a .xacro file given unexpanded.
+  const TiXmlElement* xacro = nullptr;
+  for (const TiXmlElement* e = root->FirstChildElement(); e && !xacro; e = e->NextSiblingElement())
+    if (std::strncmp(e->Value(), "xacro:", 6) == 0) xacro = e;
+  const std::string run_xacro = "this is a xacro file: expand it first (xacro robot.urdf.xacro > robot.urdf)";
   if (robot.links.empty())
-    doc.fail(root, Owner{"robot", robot.name},
-             "no <link> elements; a mechanism needs <link> elements joined by <joint> elements (docs/urdf.md)");
+    doc.fail(xacro != nullptr ? xacro : root, Owner{"robot", robot.name},
+             xacro != nullptr ? "no <link> elements, and <" + std::string(xacro->Value()) + "> is not URDF; " + run_xacro
+                              : "no <link> elements; a mechanism needs <link> elements joined by <joint> elements "
+                                "(docs/urdf.md)");
+  if (xacro != nullptr)
+    robot.notes.push_back(Error(doc.at(xacro), "robot", robot.name,
+                                "<" + std::string(xacro->Value()) + "> is not URDF and is ignored; if " + run_xacro)
+                              .what());
 
   std::map<std::string, int> joint_index;
   for (const TiXmlElement* e = root->FirstChildElement(); e; e = e->NextSiblingElement()) {
