@@ -272,9 +272,6 @@ Arguments parse_arguments(int argc, char** argv) {
   return args;
 }
 
-// Writes all files or none: each goes to a fresh temporary file in its
-// folder first (mkstemp), every target is checked, then all are renamed into
-// place.  A failure before the renames leaves no trace.
 // Why `path` cannot be written, and what to do, for the option `role` gave
 // it (-o, --report, ...): the folder is missing, is a file, or is not
 // writable; else the system's reason `err`.
@@ -283,8 +280,7 @@ std::string cannot_write(const std::string& role, const fs::path& path, int err)
   const std::string head = role + " " + path.string() + ": cannot write: ";
   std::error_code ec;
   if (fs::is_directory(path, ec))
-    return head + "it is a folder; give a file name in it (e.g. " + (path / path.filename()).string() +
-           (path.has_extension() ? "" : ".cpp") + ")";
+    return head + "it is a folder; give the path of a file, or remove the folder";
   if (!fs::exists(folder, ec))
     return head + "the folder " + folder.string() + " does not exist; create it (mkdir -p " + folder.string() +
            ") or write elsewhere";
@@ -295,6 +291,9 @@ std::string cannot_write(const std::string& role, const fs::path& path, int err)
   return head + std::strerror(err);
 }
 
+// Writes all files or none: each goes to a fresh temporary file in its
+// folder first (mkstemp), every target is checked, then all are renamed into
+// place.  A failure before the renames leaves no trace.
 class AtomicOutput {
  public:
   void add(const std::string& role, const fs::path& path, const std::string& text) {
