@@ -50,14 +50,17 @@ endfunction()
 function(add_jr_solver)
   cmake_parse_arguments(ARG "" "TARGET;URDF;CUTS;NAMESPACE" "OPTIONS" ${ARGN})
   if(NOT ARG_TARGET OR NOT ARG_URDF)
-    message(FATAL_ERROR "add_jr_solver: TARGET and URDF are required")
+    message(FATAL_ERROR "add_jr_solver: TARGET and URDF are required, e.g. add_jr_solver(TARGET robot_dyn URDF robot.urdf) "
+                        "(docs/cmake.md)")
   endif()
   if(ARG_UNPARSED_ARGUMENTS)
-    message(FATAL_ERROR "add_jr_solver: unknown arguments: ${ARG_UNPARSED_ARGUMENTS}")
+    message(FATAL_ERROR "add_jr_solver: unknown arguments: ${ARG_UNPARSED_ARGUMENTS}; the keywords are TARGET, URDF, "
+                        "CUTS, NAMESPACE and OPTIONS (jrgen's options, such as --method ldlt, go after OPTIONS)")
   endif()
   list(REMOVE_ITEM ARG_KEYWORDS_MISSING_VALUES OPTIONS)  # an empty OPTIONS list is fine
   if(ARG_KEYWORDS_MISSING_VALUES)
-    message(FATAL_ERROR "add_jr_solver: no value given for ${ARG_KEYWORDS_MISSING_VALUES}")
+    message(FATAL_ERROR "add_jr_solver: no value given for ${ARG_KEYWORDS_MISSING_VALUES}; give each keyword its "
+                        "value, e.g. CUTS robot.cuts.xml")
   endif()
   set(exe "${JRGEN_EXECUTABLE}")
   if(NOT exe)
@@ -149,10 +152,12 @@ set_property(GLOBAL PROPERTY JRGEN_SIMULATOR_MAIN "${CMAKE_CURRENT_LIST_DIR}/jrg
 function(add_jr_simulator)
   cmake_parse_arguments(ARG "" "TARGET;URDF;CUTS;NAMESPACE" "OPTIONS" ${ARGN})
   if(NOT ARG_TARGET OR NOT ARG_URDF)
-    message(FATAL_ERROR "add_jr_simulator: TARGET and URDF are required")
+    message(FATAL_ERROR "add_jr_simulator: TARGET and URDF are required, e.g. add_jr_simulator(TARGET robot_dyn URDF robot.urdf) "
+                        "(docs/cmake.md)")
   endif()
   if(ARG_UNPARSED_ARGUMENTS)
-    message(FATAL_ERROR "add_jr_simulator: unknown arguments: ${ARG_UNPARSED_ARGUMENTS}")
+    message(FATAL_ERROR "add_jr_simulator: unknown arguments: ${ARG_UNPARSED_ARGUMENTS}; the keywords are TARGET, URDF, "
+                        "CUTS, NAMESPACE and OPTIONS (jrgen's options, such as --method ldlt, go after OPTIONS)")
   endif()
   set(ns "${ARG_NAMESPACE}")
   if(NOT ns)

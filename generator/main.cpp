@@ -99,6 +99,44 @@ struct Arguments {
   bool singular_proximal = false;
 };
 
+// Every option and what its value looks like ("" for a flag), for "missing
+// value" and "did you mean" messages.
+const std::vector<std::pair<std::string, std::string>>& option_table() {
+  static const std::vector<std::pair<std::string, std::string>> table = {
+      {"-o", "OUT.cpp"},           {"--output", "OUT.cpp"},
+      {"--cuts", "CUTS.xml"},      {"--namespace", "NAME"},
+      {"--gravity", "GX,GY,GZ"},   {"--method", "llt|ldlt"},
+      {"--report", "OPS.md"},      {"--graph", "OUT.dot|OUT.svg"},
+      {"--sparsity", "OUT.svg"},   {"--assemble-from", "Q.txt"},
+      {"--strict-constraints", ""}, {"--divide", ""},
+      {"--bound-mass", "KG"},      {"--bound-inertia", "KGM2"},
+      {"--singular", "off|proximal"}, {"--threads", "auto|1|N"},
+      {"--help", ""},              {"--version", ""},
+      {"-h", ""}};
+  return table;
+}
+
+bool is_option(const std::string& a) {
+  for (const auto& [name, metavar] : option_table())
+    if (a == name) return true;
+  return false;
+}
+
+// "unknown option" with what to write instead: "--method=ldlt" ->
+// "--method ldlt"; a misspelling -> the option meant.
+std::string unknown_option(const std::string& a) {
+  const std::size_t eq = a.find('=');
+  if (eq != std::string::npos && is_option(a.substr(0, eq)))
+    return "unknown option '" + a + "'; write '" + a.substr(0, eq) + " " + a.substr(eq + 1) +
+           "' (the value follows a space, not '=')";
+  std::vector<std::string> names;
+  for (const auto& [name, metavar] : option_table())
+    if (name.size() > 2) names.push_back(name);
+  const std::string near = jrgen::closest_match(a, names);
+  if (!near.empty()) return "unknown option '" + a + "'; did you mean " + near + "? (see jrgen --help)";
+  return "unknown option '" + a + "'; see jrgen --help for the options";
+}
+
 // `text` as a whole is one finite number.
 bool parse_finite(const std::string& text, double& x) {
   std::size_t used = 0;
@@ -124,7 +162,8 @@ std::string picture_path(const std::string& option, const std::string& path, con
 double parse_bound(const std::string& option, const std::string& text) {
   double x = 0.0;
   if (!parse_finite(text, x) || !(x > 0.0))
-    throw jrgen::Error(option + ": expected a positive number, got '" + text + "'");
+    throw jrgen::Error(option + ": expected a positive number, got '" + text + "'; write e.g. " + option + " " +
+                       (option == "--bound-mass" ? "1e-3" : "1e-6"));
   return x;
 }
 
@@ -134,10 +173,11 @@ Eigen::Vector3d parse_gravity(const std::string& text) {
   for (int k = 0; k < 3; ++k) {
     const std::size_t end = text.find(',', pos);
     if ((k < 2) != (end != std::string::npos))
-      throw jrgen::Error("--gravity: expected three numbers GX,GY,GZ, got '" + text + "'");
+      throw jrgen::Error("--gravity: expected three numbers GX,GY,GZ, got '" + text +
+                         "'; write them with commas and no spaces, e.g. --gravity 0,0,-9.81");
     const std::string part = text.substr(pos, end == std::string::npos ? std::string::npos : end - pos);
     if (!parse_finite(part, g[k]))
-      throw jrgen::Error("--gravity: '" + part + "' is not a finite number");
+      throw jrgen::Error("--gravity: '" + part + "' is not a finite number; write e.g. --gravity 0,0,-9.81 (m/s^2)");
     pos = end + 1;
   }
   return g;
@@ -146,7 +186,15 @@ Eigen::Vector3d parse_gravity(const std::string& text) {
 Arguments parse_arguments(int argc, char** argv) {
   Arguments args;
   auto value = [&](int& i) -> std::string {
-    if (i + 1 >= argc) throw jrgen::Error(std::string(argv[i]) + ": missing value");
+    const std::string option = argv[i];
+    std::string metavar;
+    for (const auto& [name, m] : option_table())
+      if (name == option) metavar = m;
+    if (i + 1 >= argc) throw jrgen::Error(option + ": missing value; write " + option + " " + metavar);
+    // "--cuts -o x.cpp": the value was forgotten, "-o" is not a file name.
+    if (is_option(argv[i + 1]))
+      throw jrgen::Error(option + ": missing value (the next argument, " + argv[i + 1] + ", is an option); write " +
+                         option + " " + metavar);
     return argv[++i];
   };
   for (int i = 1; i < argc; ++i) {
@@ -168,7 +216,8 @@ Arguments parse_arguments(int argc, char** argv) {
     else if (a == "--bound-inertia") args.bounds.inertia = parse_bound(a, value(i));
     else if (a == "--singular") {
       const std::string m = value(i);
-      if (m != "off" && m != "proximal") throw jrgen::Error("--singular: expected off or proximal, got '" + m + "'");
+      if (m != "off" && m != "proximal")
+        throw jrgen::Error("--singular: expected off or proximal, got '" + m + "' (docs/status.md)");
       args.singular_proximal = m == "proximal";
     }
     else if (a == "--threads") {
@@ -193,17 +242,23 @@ Arguments parse_arguments(int argc, char** argv) {
       else if (m == "ldlt") args.method = jrgen::emit::Method::kLDLT;
       else throw jrgen::Error("--method: expected llt or ldlt, got '" + m + "'");
     } else if (!a.empty() && a[0] == '-') {
-      throw jrgen::Error("unknown option '" + a + "' (see jrgen --help)");
+      throw jrgen::Error(unknown_option(a));
     } else if (args.model.empty()) {
       args.model = a;
     } else {
-      throw jrgen::Error("more than one model given: '" + args.model + "' and '" + a + "'");
+      throw jrgen::Error("more than one model given: '" + args.model + "' and '" + a + "'; give one MODEL.urdf" +
+                         (fs::path(a).extension() == ".cpp" ? " (write -o before the output " + a + ")"
+                                                            : " (further cut joints go in --cuts CUTS.xml)"));
     }
   }
-  if (args.model.empty()) throw jrgen::Error("missing MODEL.urdf (see jrgen --help)");
-  if (args.output.empty()) throw jrgen::Error("missing -o OUT.cpp (see jrgen --help)");
+  if (args.model.empty())
+    throw jrgen::Error("missing MODEL.urdf: give the URDF file to generate from, e.g. jrgen robot.urdf -o robot.cpp");
+  if (args.output.empty())
+    throw jrgen::Error("missing -o OUT.cpp: say where to write the solver, e.g. jrgen " + args.model + " -o " +
+                       fs::path(args.model).stem().string() + ".cpp");
   if (fs::path(args.output).extension() != ".cpp")
-    throw jrgen::Error("-o " + args.output + ": the output must end in .cpp (OUT.hpp is written beside it)");
+    throw jrgen::Error("-o " + args.output + ": the output must end in .cpp (OUT.hpp is written beside it); write -o " +
+                       fs::path(args.output).replace_extension(".cpp").string());
   for (char c : fs::path(args.output).filename().string())
     if (c == '"' || c == '\\' || static_cast<unsigned char>(c) < 0x20 || c == 0x7f)
       throw jrgen::Error("-o: the output's file name may not hold quotes, backslashes or control characters, since the "
@@ -217,51 +272,74 @@ Arguments parse_arguments(int argc, char** argv) {
   return args;
 }
 
+// Why `path` cannot be written, and what to do, for the option `role` gave
+// it (-o, --report, ...): the folder is missing, is a file, or is not
+// writable; else the system's reason `err`.
+std::string cannot_write(const std::string& role, const fs::path& path, int err) {
+  const fs::path folder = path.parent_path().empty() ? fs::path(".") : path.parent_path();
+  const std::string head = role + " " + path.string() + ": cannot write: ";
+  std::error_code ec;
+  if (fs::is_directory(path, ec))
+    return head + "it is a folder; give the path of a file, or remove the folder";
+  if (!fs::exists(folder, ec))
+    return head + "the folder " + folder.string() + " does not exist; create it (mkdir -p " + folder.string() +
+           ") or write elsewhere";
+  if (!fs::is_directory(folder, ec)) return head + folder.string() + " is a file, not a folder; choose another path";
+  if (err == EACCES || err == EPERM || err == EROFS)
+    return head + std::strerror(err) + "; choose a folder you can write to, or change the permissions of " +
+           folder.string();
+  return head + std::strerror(err);
+}
+
 // Writes all files or none: each goes to a fresh temporary file in its
 // folder first (mkstemp), every target is checked, then all are renamed into
 // place.  A failure before the renames leaves no trace.
 class AtomicOutput {
  public:
-  void add(const fs::path& path, const std::string& text) {
+  void add(const std::string& role, const fs::path& path, const std::string& text) {
     std::error_code ec;
-    if (fs::is_directory(path, ec))
-      throw jrgen::Error(path.string() + ": cannot write: Is a directory");
+    if (fs::is_directory(path, ec)) throw jrgen::Error(cannot_write(role, path, EISDIR));
     std::string tmpl = path.string() + ".jrgen-tmp-XXXXXX";
     const int fd = ::mkstemp(tmpl.data());
-    if (fd < 0) throw jrgen::Error(path.string() + ": cannot write: " + std::strerror(errno));
-    pending_.push_back({fs::path(tmpl), path});
+    if (fd < 0) throw jrgen::Error(cannot_write(role, path, errno));
+    pending_.push_back({fs::path(tmpl), path, role});
     std::FILE* f = ::fdopen(fd, "wb");
     if (f == nullptr) {
+      const int err = errno;
       ::close(fd);
-      throw jrgen::Error(path.string() + ": cannot write: " + std::strerror(errno));
+      throw jrgen::Error(cannot_write(role, path, err));
     }
     const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size();
     const int saved = errno;
     if (std::fclose(f) != 0 || !ok)
-      throw jrgen::Error(path.string() + ": cannot write: " + std::strerror(ok ? errno : saved));
+      throw jrgen::Error(cannot_write(role, path, ok ? errno : saved));
     ::chmod(tmpl.c_str(), 0644);  // mkstemp makes 0600; outputs are ordinary files
   }
   void commit() {
-    for (const auto& [tmp, path] : pending_) {
+    for (const auto& [tmp, path, role] : pending_) {
       std::error_code ec;
-      if (fs::is_directory(path, ec)) throw jrgen::Error(path.string() + ": cannot write: Is a directory");
+      if (fs::is_directory(path, ec)) throw jrgen::Error(cannot_write(role, path, EISDIR));
     }
-    for (const auto& [tmp, path] : pending_) {
+    for (const auto& [tmp, path, role] : pending_) {
       std::error_code ec;
       fs::rename(tmp, path, ec);
-      if (ec) throw jrgen::Error(path.string() + ": cannot write: " + ec.message());
+      if (ec) throw jrgen::Error(cannot_write(role, path, ec.value()));
     }
     pending_.clear();
   }
   ~AtomicOutput() {
-    for (const auto& [tmp, path] : pending_) {
+    for (const auto& [tmp, path, role] : pending_) {
       std::error_code ec;
       fs::remove(tmp, ec);
     }
   }
 
  private:
-  std::vector<std::pair<fs::path, fs::path>> pending_;
+  struct Pending {
+    fs::path tmp, path;
+    std::string role;
+  };
+  std::vector<Pending> pending_;
 };
 
 // One file as the file system sees it: the (device, inode) pair of an
@@ -330,11 +408,21 @@ int run(const Arguments& args) {
   }
   jrgen::ir::Robot robot = jrgen::urdf::read_robot(args.model);
   if (!args.cuts.empty()) jrgen::urdf::read_cuts(args.cuts, robot);
-  jrgen::topology::Tree tree = jrgen::topology::build_tree(robot, args.bounds);
-  jrgen::analysis::check_finite_dynamics(robot, tree, args.gravity);
-  // Closed loops: default distances, assembly, redundant rows (notes on stderr).
-  const jrgen::analysis::ConstraintAnalysis analysis =
-      jrgen::analysis::analyze_constraints(robot, tree, args.strict_constraints, args.assemble_from);
+  jrgen::topology::Tree tree;
+  jrgen::analysis::ConstraintAnalysis analysis;
+  try {
+    tree = jrgen::topology::build_tree(robot, args.bounds);
+    jrgen::analysis::check_finite_dynamics(robot, tree, args.gravity);
+    // Closed loops: default distances, assembly, redundant rows (notes on stderr).
+    analysis = jrgen::analysis::analyze_constraints(robot, tree, args.strict_constraints, args.assemble_from);
+  } catch (const jrgen::Error& e) {
+    // A misspelling the reader noted (<inertail>: no mass) often explains
+    // the error; the one line names it.
+    if (robot.notes.empty()) throw;
+    std::string note = robot.notes.front();  // "file:line: <link> ...": the model's file goes without saying
+    if (note.rfind(args.model + ":", 0) == 0) note = "of line " + note.substr(args.model.size() + 1);
+    throw jrgen::Error(std::string(e.what()) + " (perhaps because " + note + ")");
+  }
 
   const fs::path cpp_path(args.output);
   fs::path hpp_path = cpp_path;
@@ -356,18 +444,19 @@ int run(const Arguments& args) {
   const jrgen::emit::Solver solver = jrgen::emit::emit_solver(robot, tree, options);
 
   AtomicOutput out;
-  out.add(cpp_path, solver.source);
-  out.add(hpp_path, solver.header);
+  out.add("-o", cpp_path, solver.source);
+  out.add("the header of -o", hpp_path, solver.header);
   if (!args.report.empty())
-    out.add(args.report, jrgen::emit::operation_report(robot, tree, solver) + analysis.report_section);
+    out.add("--report", args.report, jrgen::emit::operation_report(robot, tree, solver) + analysis.report_section);
   if (!args.graph.empty()) {
     const std::string dot = jrgen::emit::topology_dot(robot, tree);
     const bool svg = fs::path(args.graph).extension() == ".svg";
-    out.add(args.graph, svg ? jrgen::emit::render_svg(dot, args.graph) : dot);
+    out.add("--graph", args.graph, svg ? jrgen::emit::render_svg(dot, args.graph) : dot);
   }
-  if (!args.sparsity.empty()) out.add(args.sparsity, jrgen::emit::sparsity_svg(robot, tree));
+  if (!args.sparsity.empty()) out.add("--sparsity", args.sparsity, jrgen::emit::sparsity_svg(robot, tree));
   out.commit();
   // Notes only after success: a failing run prints exactly one line.
+  for (const std::string& note : robot.notes) std::cerr << "jrgen: note: " << note << '\n';
   for (const std::string& note : tree.notes) std::cerr << "jrgen: note: " << note << '\n';
   for (const std::string& note : analysis.notes) std::cerr << "jrgen: note: " << note << '\n';
   for (const std::string& note : solver.notes) std::cerr << "jrgen: note: " << note << '\n';

@@ -36,9 +36,14 @@ std::string expected(const topology::Tree& tree) {
 
 Eigen::VectorXd read_start_configuration(const std::string& path, const topology::Tree& tree) {
   std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw Error(path + ": cannot read: Is a directory");
+  if (std::filesystem::is_directory(path, ec))
+    throw Error("--assemble-from " + path + ": cannot read: it is a folder; give the file of nq numbers");
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path + ": cannot read: " + std::strerror(errno));
+  if (!in) {
+    const int err = errno;
+    throw Error("--assemble-from " + path + ": cannot read: " + std::strerror(err) +
+                (err == ENOENT ? "; check the path (relative to the folder jrgen runs in)" : ""));
+  }
   std::vector<double> values;
   std::string line;
   for (int line_number = 1; std::getline(in, line); ++line_number) {

@@ -756,7 +756,10 @@ ConstraintAnalysis analyze_constraints(const ir::Robot& robot, topology::Tree& t
       const std::string what =
           fmt::format("{} of its {} rows ({}) are redundant at the assembled configurations: {}", dropped.size(),
                       cut.rows, ir::cut_type_name(cut.type), list);
-      if (strict) throw Error(ic.where, cut_element(ic), ic.name, what + " (--strict-constraints)");
+      if (strict)
+        throw Error(ic.where, cut_element(ic), ic.name,
+                    what + " (--strict-constraints); leave the option out to let jrgen drop them (docs/urdf.md, "
+                           "redundant rows)");
       out.notes.push_back(Error(ic.where, cut_element(ic), ic.name, what + "; dropped").what());
     }
     cut.kept_rows = kept;

@@ -4,6 +4,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "ir/ir.hpp"
 
@@ -16,6 +17,11 @@ std::string one_line(const std::string& text);
 /// Formats as "file:line: <element> 'name': what is wrong" (STYLE.md section 5);
 /// the line is left out when unknown, the element part when empty.  Always one
 /// line: control characters in any part are escaped (one_line).
+/// The candidate closest to `word` when it looks like a misspelling of it
+/// (edit distance at most 2, and less than half of the word's length; case
+/// ignored), else "".  For "did you mean ..." in messages.
+std::string closest_match(const std::string& word, const std::vector<std::string>& candidates);
+
 class Error : public std::runtime_error {
  public:
   Error(const ir::SourceLocation& where, const std::string& element, const std::string& name,

@@ -2,6 +2,9 @@
 
 #include "ir/error.hpp"
 
+#include <algorithm>
+#include <vector>
+
 namespace jrgen {
 
 namespace {
@@ -49,6 +52,41 @@ std::string one_line(const std::string& text) {
     }
   }
   return out;
+}
+
+namespace {
+// Optimal string alignment distance (Levenshtein plus adjacent swaps), case
+// ignored: "inertail" is 1 from "inertial".
+int edit_distance(const std::string& a, const std::string& b) {
+  const auto lower = [](char c) { return (c >= 'A' && c <= 'Z') ? static_cast<char>(c - 'A' + 'a') : c; };
+  const std::size_t n = a.size(), m = b.size();
+  std::vector<std::vector<int>> d(n + 1, std::vector<int>(m + 1, 0));
+  for (std::size_t i = 0; i <= n; ++i) d[i][0] = static_cast<int>(i);
+  for (std::size_t j = 0; j <= m; ++j) d[0][j] = static_cast<int>(j);
+  for (std::size_t i = 1; i <= n; ++i)
+    for (std::size_t j = 1; j <= m; ++j) {
+      const int cost = lower(a[i - 1]) == lower(b[j - 1]) ? 0 : 1;
+      d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + cost});
+      if (i > 1 && j > 1 && lower(a[i - 1]) == lower(b[j - 2]) && lower(a[i - 2]) == lower(b[j - 1]))
+        d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+    }
+  return d[n][m];
+}
+}  // namespace
+
+std::string closest_match(const std::string& word, const std::vector<std::string>& candidates) {
+  if (word.size() > 200) return "";
+  std::string best;
+  int best_distance = 3;
+  for (const std::string& c : candidates) {
+    if (c.size() > 200) continue;
+    const int d = edit_distance(word, c);
+    if (d < best_distance && 2 * d < static_cast<int>(std::max(word.size(), c.size()))) {
+      best = c;
+      best_distance = d;
+    }
+  }
+  return best;
 }
 
 Error::Error(const ir::SourceLocation& where, const std::string& element, const std::string& name,

@@ -135,6 +135,9 @@ struct Robot {
   std::vector<JointSpring> joint_springs;  ///< document order
   std::vector<JointForce> joint_forces;    ///< document order
   int root_link = -1;
+  /// Notes of the readers for stderr: elements and attributes that look
+  /// misspelled and are ignored ("<inertail>: did you mean <inertial>?").
+  std::vector<std::string> notes;
 
   int find_link(const std::string& name) const;  ///< -1 when absent
   int nq() const;  ///< sum of joint_nq over joints

@@ -46,7 +46,8 @@ Spring place_spring(const ir::Robot& robot, const Tree& tree, const std::vector<
                 "check xyz (metres)");
   if (spring.body_k == spring.body_l)
     throw Error(is.where, "spring", is.name,
-                "joins two links of the same rigid body (after fusing fixed joints); it exerts no net force");
+                "joins two links of the same rigid body (after fusing fixed joints); it exerts no net force: attach it to "
+                "links that move relative to each other, or remove it");
   if (is.rest_given) {
     spring.rest_length = is.rest_length;
     return spring;

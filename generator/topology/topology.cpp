@@ -338,7 +338,8 @@ Tree build_tree(const ir::Robot& robot, const MassBounds& bounds) {
                   "check <origin> and <child_origin> (metres, radians)");
     if (cut.body_k == cut.body_l)
       throw Error(ic.where, "loop_joint", ic.name,
-                  "joins two links of the same rigid body (after fusing fixed joints); it constrains nothing");
+                  "joins two links of the same rigid body (after fusing fixed joints); it constrains nothing: remove it, or "
+                  "correct its <parent> or <child> link");
     int dk = cut.body_k >= 0 ? tree.bodies[cut.body_k].v_lem : -1;
     int dl = cut.body_l >= 0 ? tree.bodies[cut.body_l].v_lem : -1;
     while (dk >= 0 || dl >= 0) {  // merge of two increasing chains

@@ -80,6 +80,13 @@ std::string format_number(double x) {
 
 std::string quote(const std::string& s) { return "'" + s + "'"; }
 
+/// "; did you mean 'x'?" when `word` looks like a misspelling of one of
+/// `names`, else "".
+std::string did_you_mean(const std::string& word, const std::vector<std::string>& names) {
+  const std::string near = closest_match(word, names);
+  return near.empty() ? "" : "; did you mean " + quote(near) + "?";
+}
+
 const char* attribute(const TiXmlElement* e, const char* name) {
   return e != nullptr ? e->Attribute(name) : nullptr;
 }
@@ -138,13 +145,19 @@ std::optional<std::vector<double>> read_numbers(const Doc& doc, const TiXmlEleme
                  where + ": " + quote(std::string(token)) + " is not a number" +
                      (token.find('$') != std::string_view::npos
                           ? "; this looks like unexpanded xacro, run xacro first"
-                          : ""));
+                      : token.find(',') != std::string_view::npos
+                          ? "; URDF separates numbers by spaces and writes decimals with '.'"
+                      : token.find('&') != std::string_view::npos || token.back() == ';'  // TinyXML drops '&'
+                          ? "; jrgen does not expand XML entities (<!ENTITY> in a <!DOCTYPE>): write the number"
+                          : "; write a number such as 0.5"));
       case NumberStatus::NotFinite:
         doc.fail(e, owner,
                  where + ": " + quote(std::string(token)) +
                      " is not a finite number; use finite values");
       case NumberStatus::OutOfRange:
-        doc.fail(e, owner, where + ": " + quote(std::string(token)) + " is out of range");
+        doc.fail(e, owner,
+                 where + ": " + quote(std::string(token)) +
+                     " is out of the range of double precision; check the value and its units");
     }
     values.push_back(x);
   }
@@ -239,19 +252,103 @@ std::optional<Eigen::Vector3d> read_axis(const Doc& doc, const TiXmlElement* e,
 }
 
 // ---------------------------------------------------------------------------
+// Misspelled elements and attributes (notes)
+// ---------------------------------------------------------------------------
+
+/// The child elements jrgen knows inside an element, for the misspelling
+/// check; elements not listed here are not looked into.
+const std::vector<std::string>* known_children(const std::string& tag) {
+  static const std::map<std::string, std::vector<std::string>> known = {
+      {"robot",
+       {"link", "joint", "loop_joint", "drake:joint", "drake:ball_constraint", "spring", "joint_spring",
+        "joint_force", "material", "gazebo", "transmission"}},
+      {"link", {"inertial", "visual", "collision"}},
+      {"inertial", {"origin", "mass", "inertia"}},
+      {"joint", {"parent", "child", "origin", "axis", "limit", "dynamics", "mimic", "calibration",
+                 "safety_controller"}},
+      {"loop_joint", {"parent", "child", "origin", "child_origin", "axis", "child_axis", "distance"}}};
+  const auto it = known.find(tag);
+  return it == known.end() ? nullptr : &it->second;
+}
+
+/// The attributes jrgen reads (or URDF defines) on an element met by the
+/// misspelling check.
+const std::vector<std::string>* known_attributes(const std::string& tag) {
+  static const std::map<std::string, std::vector<std::string>> known = {
+      {"link", {"name"}},
+      {"joint", {"name", "type"}},
+      {"loop_joint", {"name", "type"}},
+      {"origin", {"xyz", "rpy"}},
+      {"child_origin", {"xyz", "rpy"}},
+      {"axis", {"xyz"}},
+      {"child_axis", {"xyz"}},
+      {"mass", {"value"}},
+      {"inertia", {"ixx", "ixy", "ixz", "iyy", "iyz", "izz"}},
+      {"parent", {"link"}},
+      {"child", {"link"}},
+      {"dynamics", {"damping", "friction"}},
+      {"mimic", {"joint", "multiplier", "offset"}},
+      {"limit", {"lower", "upper", "effort", "velocity"}},
+      {"distance", {"value"}}};
+  const auto it = known.find(tag);
+  return it == known.end() ? nullptr : &it->second;
+}
+
+/// Notes for what URDF parsers silently ignore but is most likely a typo:
+/// a child element or an attribute of `e` (and, recursively, of its known
+/// children) that is unknown there and one or two letters from a known one,
+/// as <inertail> or <origin xzy="...">: the model would load with a default
+/// (no mass, the x axis, the identity pose).
+void note_misspellings(const Doc& doc, const TiXmlElement* e, const Owner& owner, std::vector<std::string>& notes) {
+  const std::string tag = e->Value();
+  if (const std::vector<std::string>* attrs = known_attributes(tag))
+    for (const TiXmlAttribute* a = e->FirstAttribute(); a != nullptr; a = a->Next()) {
+      const std::string name = a->Name();
+      if (std::find(attrs->begin(), attrs->end(), name) != attrs->end()) continue;
+      const std::string near = closest_match(name, *attrs);
+      if (!near.empty())
+        notes.push_back(Error(doc.at(e), owner.element, owner.name,
+                              "<" + tag + "> attribute '" + name + "' is not read (ignored); did you mean '" + near +
+                                  "'?")
+                            .what());
+    }
+  const std::vector<std::string>* children = known_children(tag);
+  if (children == nullptr) return;
+  for (const TiXmlElement* c = e->FirstChildElement(); c != nullptr; c = c->NextSiblingElement()) {
+    const std::string child = c->Value();
+    Owner inner = owner;
+    if (tag == "robot") {
+      const char* name = c->Attribute("name");
+      inner = Owner{child, name != nullptr ? name : ""};
+    }
+    if (std::find(children->begin(), children->end(), child) != children->end()) {
+      note_misspellings(doc, c, inner, notes);
+      continue;
+    }
+    const std::string near = closest_match(child, *children);
+    if (!near.empty())
+      notes.push_back(Error(doc.at(c), inner.element, inner.name,
+                            "<" + child + "> is not a URDF element inside <" + tag + "> and is ignored; did you mean <" +
+                                near + ">?")
+                          .what());
+  }
+}
+
+// ---------------------------------------------------------------------------
 // Files and XML
 // ---------------------------------------------------------------------------
 
 std::string read_file(const std::string& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
-    throw Error(ir::SourceLocation{path, 0}, "", "", "cannot read file: it is a directory");
+    throw Error(ir::SourceLocation{path, 0}, "", "", "cannot read file: it is a folder; give the file in it");
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     const int err = errno;
     throw Error(
         ir::SourceLocation{path, 0}, "", "",
-        std::string("cannot read file: ") + (err != 0 ? std::strerror(err) : "open failed"));
+        std::string("cannot read file: ") + (err != 0 ? std::strerror(err) : "open failed") +
+            (err == ENOENT ? "; check the path (relative to the folder jrgen runs in)" : ""));
   }
   std::ostringstream text;
   text << in.rdbuf();
@@ -279,9 +376,30 @@ void check_xml_text(const Doc& doc, const std::string& xml) {
   }
 }
 
+// TinyXML ends a <!DOCTYPE> at its first '>', which may lie inside an
+// internal subset ("<!DOCTYPE robot [ <!ENTITY l \"1\"> ]>"): the rest of the
+// document was lost and the error read "no <robot> element" although there
+// is one.  The declaration is blanked out (its newlines kept, so that line
+// numbers stay right); its entities are not expanded (read_numbers says so).
+std::string without_doctype(std::string xml) {
+  const std::size_t at = xml.find("<!DOCTYPE");
+  if (at == std::string::npos) return xml;
+  int depth = 0;
+  std::size_t end = at + 9;
+  for (; end < xml.size(); ++end) {
+    if (xml[end] == '[') ++depth;
+    else if (xml[end] == ']') --depth;
+    else if (xml[end] == '>' && depth <= 0) break;
+  }
+  if (end == xml.size()) return xml;  // unterminated: TinyXML reports it
+  for (std::size_t k = at; k <= end; ++k)
+    if (xml[k] != '\n') xml[k] = ' ';
+  return xml;
+}
+
 void parse_xml(const Doc& doc, const std::string& xml, TiXmlDocument& out) {
   check_xml_text(doc, xml);
-  out.Parse(xml.c_str(), nullptr, TIXML_ENCODING_UTF8);
+  out.Parse(without_doctype(xml).c_str(), nullptr, TIXML_ENCODING_UTF8);
   if (out.Error()) {
     const int row = out.ErrorRow() > 0 ? out.ErrorRow() : 0;
     throw Error(ir::SourceLocation{doc.file, row}, "", "",
@@ -290,11 +408,22 @@ void parse_xml(const Doc& doc, const std::string& xml, TiXmlDocument& out) {
   }
 }
 
+/// " (is 'typ' meant to be type?)" when `e` has an attribute that looks
+/// like a misspelling of the missing attribute `wanted`, else "".
+std::string misspelled_attribute(const TiXmlElement* e, const std::string& wanted) {
+  for (const TiXmlAttribute* a = e->FirstAttribute(); a != nullptr; a = a->Next())
+    if (!closest_match(a->Name(), {wanted}).empty())
+      return " (is " + quote(a->Name()) + " meant to be " + wanted + "?)";
+  return "";
+}
+
 /// Name attribute of a model element; empty names are an error.
 std::string required_name(const Doc& doc, const TiXmlElement* e) {
   const char* name = attribute(e, "name");
   if (name == nullptr || *name == '\0')
-    doc.fail(e, Owner{e->Value(), ""}, "missing name attribute");
+    doc.fail(e, Owner{e->Value(), ""},
+             std::string("missing name attribute") + (name == nullptr ? misspelled_attribute(e, "name") : "") +
+                 "; add name=\"...\" to this <" + e->Value() + ">");
   return name;
 }
 
@@ -324,6 +453,7 @@ struct RobotXml {
   std::map<std::string, int> link_index;
   std::vector<const TiXmlElement*> cut_elements;  ///< <loop_joint>, <drake:ball_constraint>
   std::vector<const TiXmlElement*> force_elements;  ///< <spring>, <joint_spring>, <joint_force>
+  std::vector<std::string> notes;  ///< misspelled elements and attributes (note_misspellings)
 };
 
 /// Checks <inertial>: mass present, finite and >= 0; inertia present with six
@@ -338,7 +468,7 @@ void check_inertial(const Doc& doc, const TiXmlElement* inertial, const Owner& o
   if (mass_xml == nullptr)
     doc.fail(inertial, owner, "<inertial> has no <mass value=\"...\"/>; add one");
   const auto mass = read_scalar(doc, mass_xml, "value", owner);
-  if (!mass) doc.fail(mass_xml, owner, "<mass> has no value attribute");
+  if (!mass) doc.fail(mass_xml, owner, "<mass> has no value attribute; write <mass value=\"...\"/> (kg)");
   if (*mass < 0.0)
     doc.fail(mass_xml, owner,
              "negative mass " + format_number(*mass) + "; mass must be zero or positive");
@@ -352,7 +482,10 @@ void check_inertial(const Doc& doc, const TiXmlElement* inertial, const Owner& o
   const char* const keys[6] = {"ixx", "ixy", "ixz", "iyy", "iyz", "izz"};
   for (int k = 0; k < 6; ++k) {
     const auto x = read_scalar(doc, inertia_xml, keys[k], owner);
-    if (!x) doc.fail(inertia_xml, owner, std::string("<inertia> has no ") + keys[k] + " attribute");
+    if (!x)
+      doc.fail(inertia_xml, owner,
+               std::string("<inertia> has no ") + keys[k] +
+                   " attribute; give all six of ixx ixy ixz iyy iyz izz (kg m^2, 0 where zero)");
     v[k] = *x;
   }
   Eigen::Matrix3d I;
@@ -409,6 +542,25 @@ std::optional<ir::JointType> joint_type_from(std::string_view s) {
   return std::nullopt;
 }
 
+/// For an unknown joint type: the URDF type meant (other formats' names,
+/// misspellings), as "; use type=\"x\" (...); ", else "; ".
+std::string joint_type_hint(const std::string& type) {
+  static const std::vector<std::pair<std::string, std::string>> synonyms = {
+      {"hinge", "revolute"},      {"rotational", "revolute"}, {"rotary", "revolute"},
+      {"slider", "prismatic"},    {"slide", "prismatic"},     {"linear", "prismatic"},
+      {"sliding", "prismatic"},   {"spherical", "ball"},      {"free", "floating"},
+      {"freejoint", "floating"},  {"weld", "fixed"},          {"rigid", "fixed"}};
+  for (const auto& [other, urdf] : synonyms)
+    if (type == other) return "; use type=\"" + urdf + "\" (the URDF name); ";
+  if (type == "universal" || type == "cylindrical" || type == "screw" || type == "gearbox")
+    return "; URDF has no such tree joint: build it from revolute and prismatic joints with light links "
+           "between, or make it a <loop_joint>; ";
+  const std::string near = closest_match(type, {"revolute", "continuous", "prismatic", "fixed", "floating", "planar",
+                                                "ball"});
+  if (!near.empty()) return " (did you mean " + quote(near) + "?); ";
+  return "; ";
+}
+
 bool has_axis(ir::JointType type) {
   return type == ir::JointType::Revolute || type == ir::JointType::Continuous ||
          type == ir::JointType::Prismatic || type == ir::JointType::Planar;
@@ -422,8 +574,14 @@ int joint_link(const Doc& doc, const TiXmlElement* joint, const char* which, con
   if (link == nullptr || *link == '\0')
     doc.fail(e != nullptr ? e : joint, owner, std::string("missing <") + which + " link=\"...\"/>");
   const auto found = robot.link_index.find(link);
-  if (found == robot.link_index.end())
-    doc.fail(e, owner, std::string(which) + " link " + quote(link) + " is not defined");
+  if (found == robot.link_index.end()) {
+    std::vector<std::string> names;
+    for (const LinkXml& l : robot.links) names.push_back(l.name);
+    const std::string near = did_you_mean(link, names);
+    doc.fail(e, owner,
+             std::string(which) + " link " + quote(link) + " is not defined" +
+                 (near.empty() ? "; add <link name=\"" + std::string(link) + "\"> or correct the name" : near));
+  }
   return found->second;
 }
 
@@ -440,7 +598,10 @@ void read_joint_xml(const Doc& doc, const TiXmlElement* e, RobotXml& robot,
                  std::to_string(robot.joints[found->second].xml->Row()) + "); rename one");
 
   const char* type = attribute(e, "type");
-  if (type == nullptr) doc.fail(e, owner, "missing type attribute");
+  if (type == nullptr)
+    doc.fail(e, owner,
+             "missing type attribute" + misspelled_attribute(e, "type") +
+                 "; add type=\"...\": revolute, continuous, prismatic, fixed, floating, planar or ball");
   const bool drake = is_tag(e, "drake:joint");
   if (drake) {
     if (std::strcmp(type, "ball") != 0)
@@ -452,8 +613,8 @@ void read_joint_xml(const Doc& doc, const TiXmlElement* e, RobotXml& robot,
     const auto t = joint_type_from(type);
     if (!t)
       doc.fail(e, owner,
-               "unknown joint type " + quote(type) +
-                   "; expected revolute, continuous, prismatic, fixed, floating, planar or ball");
+               "unknown joint type " + quote(type) + joint_type_hint(type) +
+                   "expected revolute, continuous, prismatic, fixed, floating, planar or ball");
     joint.type = *t;
   }
 
@@ -461,7 +622,8 @@ void read_joint_xml(const Doc& doc, const TiXmlElement* e, RobotXml& robot,
   joint.child_link = joint_link(doc, e, "child", owner, robot);
   if (joint.parent_link == joint.child_link)
     doc.fail(e, owner,
-             "parent and child are the same link " + quote(robot.links[joint.child_link].name));
+             "parent and child are the same link " + quote(robot.links[joint.child_link].name) +
+                 "; a joint connects two different links: correct <parent> or <child>");
 
   check_numbers_in(doc, e, owner);
   read_pose(doc, e->FirstChildElement("origin"), owner);
@@ -477,7 +639,8 @@ void read_joint_xml(const Doc& doc, const TiXmlElement* e, RobotXml& robot,
                  "planar joint axis must be a coordinate axis of the joint frame "
                  "(1 0 0, 0 1 0 or 0 0 1), got " +
                      format_number(a.x()) + " " + format_number(a.y()) + " " +
-                     format_number(a.z()));
+                     format_number(a.z()) + "; turn the joint frame with <origin rpy> so that the plane's normal "
+                     "is one of them");
     }
   }
   if (const TiXmlElement* dynamics = e->FirstChildElement("dynamics")) {
@@ -550,17 +713,38 @@ int find_root(const Doc& doc, const RobotXml& robot) {
 
 RobotXml read_robot_xml(const Doc& doc, const TiXmlDocument& xml, const ReadOptions& options) {
   const TiXmlElement* root = xml.RootElement();
-  if (root == nullptr) throw Error(doc.at(nullptr), "", "", "no <robot> element");
-  if (!is_tag(root, "robot"))
+  if (root == nullptr)
+    throw Error(doc.at(nullptr), "", "", "no <robot> element; a URDF's root element is <robot name=\"...\">");
+  if (!is_tag(root, "robot")) {
+    const std::string tag = root->Value();
     doc.fail(root, Owner{},
-             "the root element is <" + std::string(root->Value()) + ">, expected <robot>");
+             "the root element is <" + tag + ">, expected <robot>" +
+                 (tag == "loop_joints" ? "; this is a cut-joints file: give it with --cuts, and the URDF as MODEL"
+                  : tag == "sdf"       ? "; this is SDFormat, which jrgen does not read: give a URDF"
+                  : tag == "mujoco"    ? "; this is MJCF (MuJoCo), which jrgen does not read: give a URDF"
+                                       : "; jrgen reads URDF, whose root element is <robot name=\"...\">"));
+  }
   RobotXml robot;
   robot.xml = root;
   robot.name = required_name(doc, root);
 
   for (const TiXmlElement* e = root->FirstChildElement(); e; e = e->NextSiblingElement())
     if (is_tag(e, "link")) read_link_xml(doc, e, robot, options);
-  if (robot.links.empty()) doc.fail(root, Owner{"robot", robot.name}, "no <link> elements");
+  note_misspellings(doc, root, Owner{"robot", robot.name}, robot.notes);
+  // <xacro:include>, <xacro:macro>, ...: a .xacro file given unexpanded.
+  const TiXmlElement* xacro = nullptr;
+  for (const TiXmlElement* e = root->FirstChildElement(); e && !xacro; e = e->NextSiblingElement())
+    if (std::strncmp(e->Value(), "xacro:", 6) == 0) xacro = e;
+  const std::string run_xacro = "this is a xacro file: expand it first (xacro robot.urdf.xacro > robot.urdf)";
+  if (robot.links.empty())
+    doc.fail(xacro != nullptr ? xacro : root, Owner{"robot", robot.name},
+             xacro != nullptr ? "no <link> elements, and <" + std::string(xacro->Value()) + "> is not URDF; " + run_xacro
+                              : "no <link> elements; a mechanism needs <link> elements joined by <joint> elements "
+                                "(docs/urdf.md)");
+  if (xacro != nullptr)
+    robot.notes.push_back(Error(doc.at(xacro), "robot", robot.name,
+                                "<" + std::string(xacro->Value()) + "> is not URDF and is ignored; if " + run_xacro)
+                              .what());
 
   std::map<std::string, int> joint_index;
   for (const TiXmlElement* e = root->FirstChildElement(); e; e = e->NextSiblingElement()) {
@@ -691,10 +875,14 @@ int cut_link(const Doc& doc, const TiXmlElement* e, const char* which, const cha
     doc.fail(c != nullptr ? c : e, owner,
              std::string("missing <") + which + " " + attr + "=\"...\"/>");
   const int index = robot.find_link(link);
-  if (index < 0)
+  if (index < 0) {
+    std::vector<std::string> names;
+    for (const ir::Link& l : robot.links) names.push_back(l.name);
+    const std::string near = did_you_mean(link, names);
     doc.fail(c, owner,
-             std::string("<") + which + ">: link " + quote(link) + " is not defined in robot " +
-                 quote(robot.name));
+             std::string("<") + which + ">: link " + quote(link) + " is not defined in robot " + quote(robot.name) +
+                 (near.empty() ? "; name one of its <link> elements" : near));
+  }
   return index;
 }
 
@@ -710,21 +898,30 @@ ir::CutJoint read_loop_joint(const Doc& doc, const TiXmlElement* e, const ir::Ro
   const char* type = attribute(e, "type");
   if (type == nullptr)
     doc.fail(e, owner,
-             "missing type attribute (spherical, revolute, prismatic, cylindrical, universal, "
-             "fixed or distance)");
+             "missing type attribute; add type=\"...\": spherical, revolute, prismatic, cylindrical, universal, "
+             "fixed or distance");
   const auto t = cut_type_from(type);
-  if (!t)
+  if (!t) {
+    const std::string given = type;
+    const std::string meant = given == "ball" || given == "socket" ? "spherical"
+                              : given == "continuous" || given == "hinge" ? "revolute"
+                              : given == "slider" ? "prismatic"
+                              : closest_match(given, {"spherical", "revolute", "prismatic", "cylindrical",
+                                                      "universal", "fixed", "distance"});
     doc.fail(e, owner,
-             "unknown loop joint type " + quote(type) +
+             "unknown loop joint type " + quote(type) + (meant.empty() ? "" : " (did you mean " + quote(meant) + "?)") +
                  "; expected spherical, revolute, prismatic, cylindrical, universal, fixed or "
                  "distance");
+  }
   cut.type = *t;
 
   check_numbers_in(doc, e, owner);
   cut.link_k = cut_link(doc, e, "parent", "link", owner, robot);
   cut.link_l = cut_link(doc, e, "child", "link", owner, robot);
   if (cut.link_k == cut.link_l)
-    doc.fail(e, owner, "parent and child are the same link " + quote(robot.links[cut.link_k].name));
+    doc.fail(e, owner,
+             "parent and child are the same link " + quote(robot.links[cut.link_k].name) +
+                 "; a loop joint connects two different links: correct <parent> or <child>");
   cut.frame_k = read_pose(doc, e->FirstChildElement("origin"), owner);
   cut.frame_l = read_pose(doc, e->FirstChildElement("child_origin"), owner);
   if (const auto axis = read_axis(doc, e->FirstChildElement("axis"), owner)) cut.axis = *axis;
@@ -732,7 +929,7 @@ ir::CutJoint read_loop_joint(const Doc& doc, const TiXmlElement* e, const ir::Ro
     cut.child_axis = *axis;
   if (const TiXmlElement* d = e->FirstChildElement("distance")) {
     const auto value = read_scalar(doc, d, "value", owner);
-    if (!value) doc.fail(d, owner, "<distance> has no value attribute");
+    if (!value) doc.fail(d, owner, "<distance> has no value attribute; write <distance value=\"...\"/> (metres)");
     if (!(*value > 0.0))
       doc.fail(d, owner,
                "distance " + format_number(*value) +
@@ -811,7 +1008,14 @@ int one_dof_joint(const Doc& doc, const TiXmlElement* e, const char* attr, const
     doc.fail(e, owner,
              std::string("missing ") + attr + " attribute; name the revolute, continuous or prismatic joint");
   const int j = find_joint(robot, name);
-  if (j < 0) doc.fail(e, owner, "joint " + quote(name) + " is not defined in robot " + quote(robot.name));
+  if (j < 0) {
+    std::vector<std::string> names;
+    for (const ir::Joint& joint : robot.joints) names.push_back(joint.name);
+    const std::string near = did_you_mean(name, names);
+    doc.fail(e, owner,
+             "joint " + quote(name) + " is not defined in robot " + quote(robot.name) +
+                 (near.empty() ? "; name one of its <joint> elements" : near));
+  }
   if (!one_dof(robot.joints[j].type))
     doc.fail(e, owner,
              "joint " + quote(name) + " is " + ir::joint_type_name(robot.joints[j].type) + "; <" + e->Value() +
@@ -961,6 +1165,7 @@ ir::Robot read_robot_string(const std::string& xml, const std::string& display_n
   robot.name = robot_xml.name;
   robot.source_file = display_name;
   robot.root_link = root;
+  robot.notes = robot_xml.notes;
 
   // Links, document order.
   for (const LinkXml& link_xml : robot_xml.links) {
@@ -1039,18 +1244,26 @@ void read_cuts_string(const std::string& xml, const std::string& display_name, i
   TiXmlDocument document;
   parse_xml(doc, xml, document);
   const TiXmlElement* root = document.RootElement();
-  if (root == nullptr) throw Error(doc.at(nullptr), "", "", "no <loop_joints> element");
+  if (root == nullptr)
+    throw Error(doc.at(nullptr), "", "", "no <loop_joints> element; a cuts file's root element is <loop_joints>");
   if (!is_tag(root, "loop_joints"))
     doc.fail(root, Owner{},
-             "the root element is <" + std::string(root->Value()) + ">, expected <loop_joints>");
+             "the root element is <" + std::string(root->Value()) + ">, expected <loop_joints>" +
+                 (is_tag(root, "robot") ? "; this is a URDF: give it as MODEL.urdf; --cuts takes a file of "
+                                          "<loop_joint> elements inside <loop_joints>"
+                                        : "; a cuts file holds <loop_joint> elements inside <loop_joints> "
+                                          "(docs/urdf.md)"));
   CutNames names = names_in_use(robot);
   std::vector<ir::CutJoint> cuts;
   for (const TiXmlElement* e = root->FirstChildElement(); e; e = e->NextSiblingElement()) {
     if (!is_tag(e, "loop_joint"))
       doc.fail(e, Owner{},
-               "unexpected element <" + std::string(e->Value()) +
-                   "> in <loop_joints>; expected <loop_joint>");
+               "unexpected element <" + std::string(e->Value()) + "> in <loop_joints>; expected <loop_joint>" +
+                   (is_tag(e, "joint") || is_tag(e, "link")
+                        ? std::string(" (links and tree joints belong in the URDF)")
+                        : std::string(" (a cuts file holds only <loop_joint> elements)")));
     cuts.push_back(read_loop_joint(doc, e, robot, names));
+    note_misspellings(doc, e, Owner{"loop_joint", cuts.back().name}, robot.notes);
   }
   robot.cuts.insert(robot.cuts.end(), cuts.begin(), cuts.end());
 }

@@ -94,9 +94,12 @@ struct Run {
     if (h < 16.0 * std::numeric_limits<double>::epsilon() * std::max(std::abs(t), 1e-300) || !(h > 0.0)) {
       std::string why = "step size underflow (h = " + fmt_g(h) + ")";
       if (!last_rhs_error.empty()) why += "; last failure of the dynamics: " + last_rhs_error;
+      else why += "; the problem may be stiff here: try --integrator radau5";
       throw Failure(t, why);
     }
-    if (st.steps + st.rejected >= s.max_steps) throw Failure(t, "more than " + std::to_string(s.max_steps) + " steps");
+    if (st.steps + st.rejected >= s.max_steps)
+      throw Failure(t, "more than " + std::to_string(s.max_steps) +
+                           " steps; loosen --rtol/--atol, or use --integrator radau5 if the problem is stiff");
   }
   // The last step lands on t_end exactly.
   double clip(double t, double h) const {
@@ -561,6 +564,13 @@ void rk4(Run& r, Vec& y) {
 
 }  // namespace
 
+// What to do about a failed solve of status 3 in a simulation (the solvers'
+// messages of status 1 and 2 name their fixes themselves; docs/status.md).
+static std::string status_hint(int status) {
+  return status == 3 ? "; a NaN or infinity in the state: check --q0 and --v0, or tighten --rtol/--atol (--dt for rk4)"
+                     : "";
+}
+
 Failure::Failure(double time, const std::string& what) : std::runtime_error(fmt_time(time) + ": " + what), t(time) {}
 
 const std::vector<std::string>& method_names() {
@@ -656,7 +666,8 @@ Mechanism::Mechanism(const System& system, MechanismSettings settings) : sys_(sy
 }
 
 void Mechanism::fail(double t, const char* what, int status) const {
-  throw Failure(t, std::string(what) + ": solver status " + std::to_string(status) + ": " + sys_.last_error());
+  throw Failure(t, std::string(what) + ": solver status " + std::to_string(status) + ": " + sys_.last_error() +
+                       status_hint(status));
 }
 
 void Mechanism::qdot(const double* q, const double* v, double* qd) const {
@@ -747,7 +758,8 @@ int Mechanism::rhs(double t, const double* y, double* dydt, std::string& error) 
   } else {
     status = sys_.forward_dynamics(q, v, w.tau.data(), dydt + sys_.nq, w.lambda.data());
   }
-  if (status != 0) error = "forward dynamics status " + std::to_string(status) + ": " + sys_.last_error();
+  if (status != 0)
+    error = "forward dynamics status " + std::to_string(status) + ": " + sys_.last_error() + status_hint(status);
   (void)t;
   return status;
 }
@@ -782,7 +794,8 @@ void Mechanism::project_positions(double t, double* q) const {
     if (std::abs(w.phi[i]) > std::abs(w.phi[row])) row = i;
   throw Failure(t, "projection onto Phi(q) = 0 did not converge in " + std::to_string(kMaxIt) +
                        " Newton steps: max |Phi| = " + fmt_g(r) + " at constraint row " + std::to_string(row) +
-                       " (a configuration far from closing the loops, or a singular one)");
+                       " (a configuration far from closing the loops, or a singular one); start from a --q0 "
+                       "nearer an assembled configuration");
 }
 
 void Mechanism::project_velocities(double t, const double* q, double* v) const {

@@ -82,7 +82,7 @@ TEST(CliAssembly, BadStartFileIsOneError) {
   ScratchDir scratch("jrgen_assembly");
   const RunResult r = run_jrgen({kStretched.string(), "-o", "solver.cpp", "--assemble-from"}, scratch.path());
   EXPECT_EQ(r.status, 1);
-  EXPECT_EQ(r.err, "jrgen: error: --assemble-from: missing value\n");
+  EXPECT_EQ(r.err, "jrgen: error: --assemble-from: missing value; write --assemble-from Q.txt\n");
 }
 
 TEST(CliAssembly, HelpDocumentsAssembleFrom) {

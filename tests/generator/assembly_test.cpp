@@ -451,14 +451,17 @@ TEST(AssemblyStart, BadFilesAreOneError) {
     assemble(read(kAssemblyDir / "fourbar_stretched.urdf"), missing);
     ADD_FAILURE() << "no error for a missing file";
   } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()), missing + ": cannot read: No such file or directory");
+    EXPECT_EQ(std::string(e.what()), "--assemble-from " + missing +
+                                         ": cannot read: No such file or directory; check the path (relative to "
+                                         "the folder jrgen runs in)");
   }
   const std::string folder = ::testing::TempDir();
   try {
     assemble(read(kAssemblyDir / "fourbar_stretched.urdf"), folder);
     ADD_FAILURE() << "no error for a folder";
   } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()), folder + ": cannot read: Is a directory");
+    EXPECT_EQ(std::string(e.what()),
+              "--assemble-from " + folder + ": cannot read: it is a folder; give the file of nq numbers");
   }
 }
 

@@ -135,10 +135,40 @@ TEST(CliErrors, MissingModel) {
   expect_clean_failure({{"-o", "@OUT@/solver.cpp"}, {"MODEL.urdf"}, {}});
 }
 
-TEST(CliErrors, MissingOutput) { expect_clean_failure({{kPendulum}, {"-o"}, {}}); }
+TEST(CliErrors, MissingOutput) {
+  expect_clean_failure({{kPendulum}, {"missing -o OUT.cpp", "e.g. jrgen " + kPendulum + " -o pendulum.cpp"}, {}});
+}
 
 TEST(CliErrors, OutputOptionWithoutValue) {
-  expect_clean_failure({{kPendulum, "-o"}, {"-o", "missing"}, {}});
+  expect_clean_failure({{kPendulum, "-o"}, {"-o: missing value; write -o OUT.cpp"}, {}});
+}
+
+// "--cuts -o x.cpp": the value was forgotten; "-o" is not taken for a file.
+TEST(CliErrors, OptionValueIsAnotherOption) {
+  expect_clean_failure({{kPendulum, "--cuts", "-o", "@OUT@/solver.cpp"},
+                        {"--cuts: missing value (the next argument, -o, is an option); write --cuts CUTS.xml"},
+                        {}});
+  expect_clean_failure({{kPendulum, "-o", "@OUT@/solver.cpp", "--report", "--divide"},
+                        {"--report: missing value", "write --report OPS.md"},
+                        {}});
+}
+
+TEST(CliErrors, OptionWithEqualsSign) {
+  expect_clean_failure({{kPendulum, "-o", "@OUT@/solver.cpp", "--method=ldlt"},
+                        {"unknown option '--method=ldlt'; write '--method ldlt'"},
+                        {}});
+}
+
+TEST(CliErrors, MisspelledOptionNamesTheOptionMeant) {
+  expect_clean_failure({{kPendulum, "-o", "@OUT@/solver.cpp", "--namepsace", "x"},
+                        {"unknown option '--namepsace'; did you mean --namespace?"},
+                        {}});
+  expect_clean_failure({{kPendulum, "-o", "@OUT@/solver.cpp", "--strict-constraint"},
+                        {"did you mean --strict-constraints?"},
+                        {}});
+  expect_clean_failure({{kPendulum, "-o", "@OUT@/solver.cpp", "--frobnicate"},
+                        {"unknown option '--frobnicate'; see jrgen --help"},
+                        {}});
 }
 
 TEST(CliErrors, UnknownOption) {
@@ -147,14 +177,18 @@ TEST(CliErrors, UnknownOption) {
 }
 
 TEST(CliErrors, TwoModels) {
-  expect_clean_failure({{kPendulum, kPendulum, "-o", "@OUT@/solver.cpp"}, {"model"}, {}});
+  expect_clean_failure({{kPendulum, kPendulum, "-o", "@OUT@/solver.cpp"},
+                        {"more than one model", "further cut joints go in --cuts CUTS.xml"},
+                        {}});
+  // The output given without -o.
+  expect_clean_failure({{kPendulum, "solver.cpp"}, {"more than one model", "write -o before the output solver.cpp"}, {}});
 }
 
 TEST(CliErrors, BadGravity) {
   for (const std::string g : {"1,2", "1,2,3,4", "1,2,x", "nan,0,0", "0,inf,0", "1,,3", "", "0 0 -9.81",
                               "1,2,3abc"}) {
     SCOPED_TRACE("--gravity '" + g + "'");
-    expect_clean_failure({{kPendulum, "-o", "@OUT@/solver.cpp", "--gravity", g}, {"--gravity"}, {}});
+    expect_clean_failure({{kPendulum, "-o", "@OUT@/solver.cpp", "--gravity", g}, {"--gravity", "e.g. --gravity 0,0,-9.81"}, {}});
   }
   expect_clean_failure({{kPendulum, "-o", "@OUT@/solver.cpp", "--gravity"}, {"--gravity"}, {}});
 }
@@ -188,12 +222,15 @@ TEST(CliErrors, OutputMustEndInCpp) {
 // -- unwritable output (each fails even as root) -------------------------------
 
 TEST(CliErrors, OutputFolderDoesNotExist) {
-  expect_clean_failure({{kPendulum, "-o", "@OUT@/missing/solver.cpp"}, {"@OUT@/missing/solver.cpp"}, {}});
+  expect_clean_failure({{kPendulum, "-o", "@OUT@/missing/solver.cpp"},
+                        {"-o @OUT@/missing/solver.cpp: cannot write: the folder @OUT@/missing does not exist; create "
+                         "it (mkdir -p @OUT@/missing)"},
+                        {}});
 }
 
 TEST(CliErrors, OutputParentIsARegularFile) {
   expect_clean_failure({{kPendulum, "-o", "@OUT@/plain_file/solver.cpp"},
-                        {"@OUT@/plain_file/solver.cpp"},
+                        {"@OUT@/plain_file/solver.cpp", "@OUT@/plain_file is a file, not a folder"},
                         [](const fs::path& out, const fs::path&) { write_file(out / "plain_file", "x\n"); }});
 }
 
@@ -206,7 +243,7 @@ TEST(CliErrors, OutputIsAFolder) {
 // OUT.cpp is writable but OUT.hpp is not: OUT.cpp must not be written either.
 TEST(CliErrors, HeaderPathIsAFolder) {
   expect_clean_failure({{kPendulum, "-o", "@OUT@/solver.cpp"},
-                        {"@OUT@/solver.hpp"},
+                        {"the header of -o @OUT@/solver.hpp: cannot write: it is a folder"},
                         [](const fs::path& out, const fs::path&) { fs::create_directories(out / "solver.hpp" / "sub"); }});
 }
 
@@ -219,14 +256,14 @@ TEST(CliErrors, ReportPathIsAFolder) {
 
 TEST(CliErrors, ReportFolderDoesNotExist) {
   expect_clean_failure({{kPendulum, "-o", "@OUT@/solver.cpp", "--report", "@OUT@/missing/OPS.md"},
-                        {"@OUT@/missing/OPS.md"},
+                        {"--report @OUT@/missing/OPS.md: cannot write: the folder @OUT@/missing does not exist"},
                         {}});
 }
 
 TEST(CliErrors, ReadOnlyOutputFolder) {
   if (::geteuid() == 0) GTEST_SKIP() << "running as root: permissions do not stop writes";
   expect_clean_failure({{kPendulum, "-o", "@OUT@/ro/solver.cpp"},
-                        {"@OUT@/ro/solver.cpp"},
+                        {"@OUT@/ro/solver.cpp", "choose a folder you can write to"},
                         [](const fs::path& out, const fs::path&) {
                           fs::create_directories(out / "ro");
                           write_file(out / "ro" / "solver.cpp", "earlier\n");
@@ -392,6 +429,22 @@ TEST(CliOutput, RomeoLoadsWithMassBounds) {
   std::sort(unique.begin(), unique.end());
   EXPECT_EQ(std::unique(unique.begin(), unique.end()), unique.end()) << "one note per body";
   EXPECT_TRUE(fs::exists(scratch / "romeo.hpp"));
+}
+
+// Elements and attributes that URDF parsers ignore but are most likely typos
+// (<axiss>: the joint would turn about x): one note each, and the run succeeds.
+TEST(CliOutput, MisspelledElementsGiveNotes) {
+  ScratchDir scratch("jrgen_typo");
+  write_file(scratch / "typo.urdf", R"(<robot name="typo">
+  <link name="base"/>
+  <link name="arm"><inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>
+  <joint name="j" type="continuous"><parent link="base"/><child link="arm"/><axiss xyz="0 0 1"/></joint>
+</robot>)");
+  const RunResult r = run_jrgen({"typo.urdf", "-o", "solver.cpp"}, scratch.path());
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.err,
+            "jrgen: note: typo.urdf:4: <joint> 'j': <axiss> is not a URDF element inside <joint> and is ignored; "
+            "did you mean <axis>?\n");
 }
 
 // Finite numbers near DBL_MAX whose derived constants stay finite generate
@@ -1433,7 +1486,8 @@ TEST(CliLoops, FourbarStrictConstraintsIsAnError) {
   const int line = line_of(kFourbar, "<loop_joint name=\"joint_D\"");
   ASSERT_GT(line, 0);
   expect_clean_failure({{kFourbar.string(), "-o", "@OUT@/solver.cpp", "--strict-constraints"},
-                        {kFourbar.string() + ":" + std::to_string(line) + ":", "'joint_D'", "redundant"},
+                        {kFourbar.string() + ":" + std::to_string(line) + ":", "'joint_D'", "redundant",
+                         "leave the option out to let jrgen drop them"},
                         {}});
   // The option may come first as well.
   expect_clean_failure({{"--strict-constraints", kFourbar.string(), "-o", "@OUT@/solver.cpp"},

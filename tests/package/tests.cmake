@@ -44,3 +44,10 @@ foreach(_mode fetchcontent subdirectory)
       -P "${CMAKE_CURRENT_LIST_DIR}/subproject_test.cmake")
   set_tests_properties(package.subproject_${_mode} PROPERTIES TIMEOUT 900 LABELS package)
 endforeach()
+
+# add_jr_solver() / add_jr_simulator() called wrongly: the configure stops with
+# a message naming the fix (tests/package/bad_call.cmake).
+add_test(NAME package.bad_call
+  COMMAND "${CMAKE_COMMAND}" "-DJRGEN_SOURCE_DIR=${PROJECT_SOURCE_DIR}"
+          "-DWORK_DIR=${CMAKE_CURRENT_BINARY_DIR}/bad_call_test" -P "${CMAKE_CURRENT_LIST_DIR}/bad_call.cmake")
+set_tests_properties(package.bad_call PROPERTIES TIMEOUT 120 LABELS package)

@@ -61,3 +61,28 @@ expect("err MATCHES \"^fourbar_sim: error: at t = 0: forward dynamics status 3: 
 string(REGEX MATCHALL "\n" newlines "${err}")
 list(LENGTH newlines lines)
 expect("lines EQUAL 1" "overflow: stderr is not one line: '${err}'")
+
+# 5. Messages that say what to do (issue 22 item 5): each bad command line
+#    gives one line naming the fix.  (Patterns are regular expressions: '.'
+#    stands for the parentheses, which would need double escapes here.)
+foreach(case
+    "--t-end;1;--frobnicate;1|unknown option '--frobnicate'; the options are --t-end, --q0"
+    "--t-end;1;--q;1|unknown option '--q'"
+    "--t-end;1;--integrator=rk4|write '--integrator rk4' .the value follows a space"
+    "--t-end;1;--q0|--q0: missing value; write --q0 a,b,"
+    "--q0;0,0,0|missing --t-end T: give the end time in seconds .> 0., e.g. --t-end 1"
+    "--t-end;-1|--t-end must be positive"
+    "--t-end;1;--integrator;euler|'euler' is not auto, radau5, sdirk4, dopri5 or rk4; use one of these"
+    "--t-end;1;--q0;1,2|--q0: 2 values given, the model has nq = 3; give 3 numbers separated by commas"
+    "--t-end;1;--output;${WORK}/no_such_folder/run.csv|cannot write: No such file or directory; create its folder first")
+  string(FIND "${case}" "|" bar)
+  string(SUBSTRING "${case}" 0 ${bar} args)
+  math(EXPR bar "${bar} + 1")
+  string(SUBSTRING "${case}" ${bar} -1 pattern)
+  execute_process(COMMAND "${SIM}" ${args} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  expect("NOT rc EQUAL 0" "'${args}' exited 0")
+  string(REGEX MATCHALL "\n" newlines "${err}")
+  list(LENGTH newlines lines)
+  expect("lines EQUAL 1" "'${args}': stderr is not one line: '${err}'")
+  expect("err MATCHES \"${pattern}\"" "'${args}': '${err}' does not match '${pattern}'")
+endforeach()

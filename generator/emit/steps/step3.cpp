@@ -55,15 +55,20 @@ Scale Step3Layout::pivot_scale(int j) const {
 // row), shared by both shapes of Step 3.  Labels print with at most 220
 // characters: with the rest they fit g_error whatever the names.
 std::string row_failure_functions() {
-  return "// Constraint rows whose T^T T pivot fails: the loop joint is named.\n"
+  return "// What to do about status 2, after its message (docs/status.md).\n"
+         "constexpr const char* kLoopHint =\n"
+         "    \"; check that q is assembled (constraints() near 0), or generate with --singular proximal to pass \"\n"
+         "    \"through singular configurations (docs/status.md)\";\n\n"
+         "// Constraint rows whose T^T T pivot fails: the loop joint is named.\n"
          "int constraints_singular(std::int32_t row, double pivot) {\n"
          "  std::snprintf(g_error, sizeof g_error,\n"
-         "                \"constraint rows singular (T^T T not positive definite) at %.220s; pivot %.17g\",\n"
-         "                kRowLabel[row], pivot);\n"
+         "                \"constraint rows singular (T^T T not positive definite) at %.220s; pivot %.17g%s\",\n"
+         "                kRowLabel[row], pivot, kLoopHint);\n"
          "  return kConstraintsSingular;\n"
          "}\n\n"
          "int fail_row(int status, const char* what, std::int32_t row, double value) {\n"
-         "  std::snprintf(g_error, sizeof g_error, \"%.100s at %.220s, value %.17g\", what, kRowLabel[row], value);\n"
+         "  std::snprintf(g_error, sizeof g_error, \"%.100s at %.220s, value %.17g%s\", what, kRowLabel[row], value,\n"
+         "                status == kConstraintsSingular ? kLoopHint : \"\");\n"
          "  return status;\n"
          "}\n\n";
 }

@@ -117,9 +117,15 @@ thread_local double g_zm[2];    // z_m (Step 3.2), then lambda (Step 3.4)
 // fixed text and the numbers they always fit, whatever the URDF's names.
 thread_local char g_error[512];
 
+// What to do about status 1, after its message (docs/status.md).
+constexpr const char* kMassHint =
+    "; check the inertials of the links this joint moves, or generate with --bound-mass and --bound-inertia "
+    "(docs/status.md)";
+
 int fail(int status, const char* what, std::int32_t dof_user, double value) {
-  std::snprintf(g_error, sizeof g_error, "%.100s at joint '%.160s' (v[%d]), value %.17g", what,
-                joint_names[kDofJoint[dof_user]], static_cast<int>(dof_user), value);
+  std::snprintf(g_error, sizeof g_error, "%.100s at joint '%.160s' (v[%d]), value %.17g%s", what,
+                joint_names[kDofJoint[dof_user]], static_cast<int>(dof_user), value,
+                status == kMassNotPositiveDefinite ? kMassHint : "");
   return status;
 }
 
@@ -290,16 +296,22 @@ void step2_forward(const double* __restrict L, double* __restrict z) {
   z[2] = z[2] - (L[2] * z[0] + L[4] * z[1]);
 }
 
+// What to do about status 2, after its message (docs/status.md).
+constexpr const char* kLoopHint =
+    "; check that q is assembled (constraints() near 0), or generate with --singular proximal to pass "
+    "through singular configurations (docs/status.md)";
+
 // Constraint rows whose T^T T pivot fails: the loop joint is named.
 int constraints_singular(std::int32_t row, double pivot) {
   std::snprintf(g_error, sizeof g_error,
-                "constraint rows singular (T^T T not positive definite) at %.220s; pivot %.17g",
-                kRowLabel[row], pivot);
+                "constraint rows singular (T^T T not positive definite) at %.220s; pivot %.17g%s",
+                kRowLabel[row], pivot, kLoopHint);
   return kConstraintsSingular;
 }
 
 int fail_row(int status, const char* what, std::int32_t row, double value) {
-  std::snprintf(g_error, sizeof g_error, "%.100s at %.220s, value %.17g", what, kRowLabel[row], value);
+  std::snprintf(g_error, sizeof g_error, "%.100s at %.220s, value %.17g%s", what, kRowLabel[row], value,
+                status == kConstraintsSingular ? kLoopHint : "");
   return status;
 }
 

@@ -189,9 +189,15 @@ thread_local double g_z[30];     // right-hand side and solution, Lemma 2 order
 // fixed text and the numbers they always fit, whatever the URDF's names.
 thread_local char g_error[512];
 
+// What to do about status 1, after its message (docs/status.md).
+constexpr const char* kMassHint =
+    "; check the inertials of the links this joint moves, or generate with --bound-mass and --bound-inertia "
+    "(docs/status.md)";
+
 int fail(int status, const char* what, std::int32_t dof_user, double value) {
-  std::snprintf(g_error, sizeof g_error, "%.100s at joint '%.160s' (v[%d]), value %.17g", what,
-                joint_names[kDofJoint[dof_user]], static_cast<int>(dof_user), value);
+  std::snprintf(g_error, sizeof g_error, "%.100s at joint '%.160s' (v[%d]), value %.17g%s", what,
+                joint_names[kDofJoint[dof_user]], static_cast<int>(dof_user), value,
+                status == kMassNotPositiveDefinite ? kMassHint : "");
   return status;
 }
 
