@@ -1,0 +1,370 @@
+// The published benchmark problems (models/iftomm_*.urdf, models/andrews_squeezer.urdf):
+// sizes, the published initial states against the generated constraints, and dynamics
+// against data nobody here wrote: Andrews' squeezer against the Test Set for IVP Solvers
+// (its equations, implemented a second time in andrews_testset.hpp, and its published
+// accelerations and multipliers), the pendulum and the N four-bar against their closed-form
+// one-degree-of-freedom equations.  Sources: docs/simulation.md, "Published problems".
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "andrews_reference.hpp"
+#include "andrews_testset.hpp"
+#include "published_a01.hpp"
+#include "published_a02.hpp"
+#include "published_a02_proximal.hpp"
+#include "published_a04.hpp"
+#include "published_a05.hpp"
+#include "published_andrews.hpp"
+
+namespace {
+
+constexpr double kEps = 2.220446049250313e-16;
+constexpr double kG = 9.81;
+
+using Mat = Eigen::MatrixXd;
+using Vec = Eigen::VectorXd;
+
+// ---- Andrews' squeezer: the test set's coordinates y <-> jrgen's user order ------------
+
+namespace and_jr = published_andrews;
+using andrews_ref::perm;
+
+Vec to_jr(const double* y) {
+  Vec q(7);
+  for (int i = 0; i < 7; ++i) q[i] = y[perm[i]];
+  return q;
+}
+
+// P with (P y)[i] = y[perm[i]]: jrgen's vector from the test set's.
+Mat permutation() {
+  Mat P = Mat::Zero(7, 7);
+  for (int i = 0; i < 7; ++i) P(i, perm[i]) = 1;
+  return P;
+}
+
+Mat ts_mass(const double* y) {
+  double M[7][7];
+  andrews_ts::mass(y, M);
+  Mat m(7, 7);
+  for (int i = 0; i < 7; ++i)
+    for (int j = 0; j < 7; ++j) m(i, j) = M[i][j];
+  return m;
+}
+
+Mat ts_jacobian(const double* y) {
+  double G[6][7];
+  andrews_ts::jacobian(y, G);
+  Mat g(6, 7);
+  for (int i = 0; i < 6; ++i)
+    for (int j = 0; j < 7; ++j) g(i, j) = G[i][j];
+  return g;
+}
+
+// The test set's equations solved densely: [M G^T; G 0] [w; lambda] = [f; -c].
+void ts_solve(const double* y, const double* v, Vec& w, Vec& lambda) {
+  Mat K = Mat::Zero(13, 13);
+  K.topLeftCorner(7, 7) = ts_mass(y);
+  const Mat G = ts_jacobian(y);
+  K.topRightCorner(7, 6) = G.transpose();
+  K.bottomLeftCorner(6, 7) = G;
+  double f[7], c[6];
+  andrews_ts::forces(y, v, f);
+  andrews_ts::quadratic(y, v, c);
+  Vec rhs(13);
+  for (int i = 0; i < 7; ++i) rhs[i] = f[i];
+  for (int i = 0; i < 6; ++i) rhs[7 + i] = -c[i];
+  const Vec x = K.fullPivLu().solve(rhs);
+  w = x.head(7);
+  lambda = x.tail(6);
+}
+
+// The forces jrgen gets as tau: none once the generator puts <spring> and <joint_force>
+// in h (INTERFACE.md 2b); before that, the motor and the spring (the test set's ff(1) at
+// rest and ff(3)), in jrgen's order (beta and gamma have the same index in both).
+Vec andrews_tau(const double* y) {
+  Vec tau = Vec::Zero(7);
+  if (!JR_FORCE_ELEMENTS) {
+    tau[0] = andrews_ref::mom;
+    tau[2] = andrews_ts::spring_force(y);
+  }
+  return tau;
+}
+
+struct JrResult {
+  int status;
+  Vec qdd, lambda, constraint_force;  // constraint_force = Phiq^T lambda (user order)
+};
+
+JrResult jr_andrews(const Vec& q, const Vec& v, const Vec& tau) {
+  JrResult r{0, Vec(7), Vec(and_jr::nc), Vec(7)};
+  r.status = and_jr::forward_dynamics(q.data(), v.data(), tau.data(), r.qdd.data(),
+                                      r.lambda.data());
+  Mat Phiq(and_jr::nc, 7);
+  and_jr::constraint_jacobian(q.data(), Phiq.data());
+  r.constraint_force = Phiq.transpose() * r.lambda;
+  return r;
+}
+
+TEST(Andrews, SizesAreTheTestSets) {
+  EXPECT_EQ(and_jr::nq, 7);
+  EXPECT_EQ(and_jr::nv, 7);
+  EXPECT_EQ(and_jr::nc, 6);  // the test set's six constraints g(q); 9 planar-redundant dropped
+}
+
+// The published start is consistent (30 digits): the test set's g and jrgen's Phi both
+// vanish there up to the rounding of lengths of 0.1 m (a few eps x 0.1).
+TEST(Andrews, PublishedStartClosesTheLoops) {
+  double g[6];
+  andrews_ts::constraints(andrews_ref::q0, g);
+  for (double gi : g) EXPECT_LE(std::abs(gi), 1e-16);
+  const Vec q = to_jr(andrews_ref::q0);
+  Vec phi(and_jr::nc);
+  and_jr::constraints(q.data(), phi.data());
+  EXPECT_LE(phi.lpNorm<Eigen::Infinity>(), 1e-16) << phi.transpose();
+  // The reference state at t = 0.03 is printed to 16 digits: |q| ~ 16 rad, so the
+  // loops close to about 16 eps x 0.03 m.
+  const Vec q_end = to_jr(andrews_ref::q_end);
+  and_jr::constraints(q_end.data(), phi.data());
+  EXPECT_LE(phi.lpNorm<Eigen::Infinity>(), 1e-14) << phi.transpose();
+}
+
+// M(q) is the test set's M, permuted, at any q (the formula does not need closed loops).
+TEST(Andrews, MassMatrixIsTheTestSets) {
+  const Mat P = permutation();
+  const std::array<std::array<double, 7>, 3> ys = {{
+      {andrews_ref::q0[0], andrews_ref::q0[1], andrews_ref::q0[2], andrews_ref::q0[3],
+       andrews_ref::q0[4], andrews_ref::q0[5], andrews_ref::q0[6]},
+      {andrews_ref::q_end[0], andrews_ref::q_end[1], andrews_ref::q_end[2],
+       andrews_ref::q_end[3], andrews_ref::q_end[4], andrews_ref::q_end[5],
+       andrews_ref::q_end[6]},
+      {0.3, -1.2, 2.0, 0.7, -0.4, 1.9, -2.5}}};
+  for (const auto& y : ys) {
+    const Vec q = to_jr(y.data());
+    Mat M(7, 7);
+    and_jr::mass_matrix(q.data(), M.data());
+    const Mat M_ts = P * ts_mass(y.data()) * P.transpose();
+    // Entries are sums of a few products of ~1e-5: 1e-13 of the largest is ~500 eps.
+    EXPECT_LE((M - M_ts).cwiseAbs().maxCoeff(), 1e-13 * M_ts.cwiseAbs().maxCoeff())
+        << "jrgen\n" << M << "\ntest set\n" << M_ts;
+  }
+}
+
+// jrgen's rows (in the cuts' frames) and the test set's g (world x, y) allow the same
+// motion: the one velocity jrgen's Phiq admits is admitted by G, and vice versa.
+TEST(Andrews, ConstraintsAdmitTheTestSetsMotion) {
+  const Mat P = permutation();
+  for (const double* y : {andrews_ref::q0, andrews_ref::q_end}) {
+    const Vec q = to_jr(y);
+    Mat Phiq(and_jr::nc, 7);
+    and_jr::constraint_jacobian(q.data(), Phiq.data());
+    const Mat n_jr = Phiq.fullPivLu().kernel();
+    ASSERT_EQ(n_jr.cols(), 1);
+    const Mat G = ts_jacobian(y);
+    const Vec n_ts = P.transpose() * n_jr.col(0).normalized();
+    EXPECT_LE((G * n_ts).norm(), 1e-14 * G.norm());
+    const Mat k_ts = G.fullPivLu().kernel();
+    ASSERT_EQ(k_ts.cols(), 1);
+    EXPECT_LE((Phiq * (P * k_ts.col(0).normalized())).norm(), 1e-14 * Phiq.norm());
+  }
+}
+
+// With the force elements in h: at rest h = -(motor + spring), the test set's ff.
+TEST(Andrews, ForceElementsAreTheTestSetsAtRest) {
+  if (!JR_FORCE_ELEMENTS) GTEST_SKIP() << "generator without <spring>/<joint_force> yet";
+  const Vec q = to_jr(andrews_ref::q0);
+  const Vec v = Vec::Zero(7);
+  Vec h(7);
+  and_jr::bias_forces(q.data(), v.data(), h.data());
+  Vec expect = Vec::Zero(7);
+  expect[0] = -andrews_ref::mom;
+  expect[2] = -andrews_ts::spring_force(andrews_ref::q0);
+  EXPECT_LE((h - expect).lpNorm<Eigen::Infinity>(), 1e-12 * expect.norm())
+      << h.transpose() << "\n" << expect.transpose();
+}
+
+// The published consistent accelerations and multipliers at t = 0 (velocities zero), 30
+// digits.  The augmented matrix [M Phiq^T; Phiq 0] has condition number about 1e5 (9e4
+// measured at the end state, in the test set's scaling): rounding allows a relative error
+// of about cond x eps ~ 2e-11; measured 5e-17 for qdd and 7e-16 for Phiq^T lambda
+// (2026-12-04).
+TEST(Andrews, InitialAccelerationIsThePublishedOne) {
+  const Vec q = to_jr(andrews_ref::q0);
+  const Vec v = Vec::Zero(7);
+  const JrResult r = jr_andrews(q, v, andrews_tau(andrews_ref::q0));
+  ASSERT_EQ(r.status, 0) << and_jr::last_error();
+  const Vec w0 = to_jr(andrews_ref::w0);
+  EXPECT_LE((r.qdd - w0).norm(), 1e-10 * w0.norm()) << r.qdd.transpose();
+  // The generalized constraint force G^T lambda is comparable across tools (INTERFACE.md 3).
+  const Vec lambda0 = Eigen::Map<const Vec>(andrews_ref::lambda0, 6);
+  const Vec gf = permutation() * (ts_jacobian(andrews_ref::q0).transpose() * lambda0);
+  EXPECT_LE((r.constraint_force - gf).norm(), 1e-10 * gf.norm())
+      << r.constraint_force.transpose() << "\n" << gf.transpose();
+  // And the second implementation gives the same.
+  Vec w, lambda;
+  ts_solve(andrews_ref::q0, v.data(), w, lambda);
+  EXPECT_LE((permutation() * w - w0).norm(), 1e-10 * w0.norm());
+}
+
+// The velocity terms: at the published state at t = 0.03 (|v| ~ 1e3 rad/s) jrgen's qdd is
+// the test set's equations' (second implementation, same 16-digit state), and close to the
+// published accelerations, which PSIDE computed with its own, slightly different, state.
+// Measured (2026-12-04): 4.6e-11 relative to the second implementation (the velocity terms,
+// ~1e3 rad/s squared, cancel to the accelerations of ~1e5: cond ~1e5 times that
+// cancellation), 1.2e-7 relative to the published accelerations (the 16 printed digits of
+// q and v, amplified by the same cancellation).
+TEST(Andrews, AccelerationAtPublishedEndState) {
+  const Vec q = to_jr(andrews_ref::q_end);
+  const Vec v = to_jr(andrews_ref::v_end);
+  const JrResult r = jr_andrews(q, v, andrews_tau(andrews_ref::q_end));
+  ASSERT_EQ(r.status, 0) << and_jr::last_error();
+  Vec w, lambda;
+  ts_solve(andrews_ref::q_end, andrews_ref::v_end, w, lambda);
+  const Vec w_ts = permutation() * w;
+  EXPECT_LE((r.qdd - w_ts).norm(), 1e-9 * w_ts.norm())
+      << r.qdd.transpose() << "\n" << w_ts.transpose();
+  const Vec w_pub = to_jr(andrews_ref::w_end);
+  EXPECT_LE((r.qdd - w_pub).norm(), 1e-6 * w_pub.norm())
+      << r.qdd.transpose() << "\n" << w_pub.transpose();
+}
+
+// ---- A01: the pendulum: q'' = -(g/L) cos q ------------------------------------------------
+
+TEST(IftommA01, PendulumEquation) {
+  namespace p = published_a01;
+  ASSERT_EQ(p::nv, 1);
+  ASSERT_EQ(p::nc, 0);
+  for (double q : {0.0, 0.4, -1.3, 3.0}) {
+    for (double v : {0.0, 2.5}) {
+      double qdd = 0, tau = 0;
+      ASSERT_EQ(p::forward_dynamics(&q, &v, &tau, &qdd, nullptr), 0) << p::last_error();
+      EXPECT_NEAR(qdd, -kG * std::cos(q), 4 * kEps * kG) << "q = " << q;
+    }
+  }
+}
+
+// ---- A02: the N four-bar ---------------------------------------------------------------
+
+namespace a02 = published_a02;
+constexpr int kN = 40;
+
+// The parallelogram motion: every crank at th, every coupler at -th relative to its crank.
+void a02_state(double th, double thd, double* q, double* v) {
+  for (int i = 0; i < a02::nv; ++i) {
+    const bool crank = (i % 2 == 0);  // user order: crank_0, coupler_1, crank_1, ...
+    q[i] = crank ? th : -th;
+    v[i] = crank ? thd : -thd;
+  }
+}
+
+TEST(IftommA02, SizesAndPublishedStart) {
+  ASSERT_EQ(a02::nv, 2 * kN + 1);
+  ASSERT_EQ(a02::nc, 2 * kN);  // two planar rows per cut; 3 x 40 redundant rows dropped
+  // The published start: the figure (q = 0), x-velocity of B0 = 1 m/s: th' = -1.
+  std::vector<double> q(a02::nq), v(a02::nv), phi(a02::nc), Phiq(a02::nc * a02::nv);
+  a02_state(0, -1, q.data(), v.data());
+  a02::constraints(q.data(), phi.data());
+  for (double p : phi) EXPECT_LE(std::abs(p), 1e-15);
+  a02::constraint_jacobian(q.data(), Phiq.data());
+  const Eigen::Map<const Mat> J(Phiq.data(), a02::nc, a02::nv);
+  const Eigen::Map<const Vec> vv(v.data(), a02::nv);
+  EXPECT_LE((J * vv).lpNorm<Eigen::Infinity>(), 1e-14);
+}
+
+// On the parallelogram the mechanism is one pendulum: T = 1/2 ((N+1)/3 + N) th'^2,
+// V = g (0.5 (N+1) + N) cos th, so th'' = g (0.5 (N+1) + N) sin th / ((N+1)/3 + N), exactly,
+// at any speed (the effective inertia is constant).
+TEST(IftommA02, ParallelogramIsAPendulum) {
+  const double meff = (kN + 1) / 3.0 + kN, grav = kG * (0.5 * (kN + 1) + kN);
+  for (double th : {0.3, -1.0, 2.2}) {
+    std::vector<double> q(a02::nq), v(a02::nv), tau(a02::nv, 0.0), qdd(a02::nv);
+    a02_state(th, -1.0, q.data(), v.data());
+    ASSERT_EQ(a02::forward_dynamics(q.data(), v.data(), tau.data(), qdd.data(), nullptr), 0)
+        << a02::last_error();
+    const double expect = grav * std::sin(th) / meff;
+    for (int i = 0; i < a02::nv; ++i)
+      EXPECT_NEAR(qdd[i], (i % 2 == 0) ? expect : -expect, 1e-11) << "coordinate " << i;
+  }
+}
+
+// The flat configuration (th = -pi/2: everything horizontal) is singular: N + 1 degrees of
+// freedom.  The default solver says so (status 2, naming a loop joint).  The regularized
+// one (--singular proximal, docs/singular.md) returns the unique acceleration there, which
+// is not the parallelogram's (the extra freedoms take part): it satisfies the acceleration
+// constraints and Gauss's principle, M qdd - (tau - h) orthogonal to every admissible
+// velocity (null(Phiq) has dimension N + 1 here).
+TEST(IftommA02, FlatConfigurationIsSingular) {
+  const int n = a02::nv, m = a02::nc;
+  std::vector<double> q(n), v(n), tau(n, 0.0), qdd(n);
+  a02_state(-M_PI / 2, -1.0, q.data(), v.data());
+  EXPECT_EQ(a02::forward_dynamics(q.data(), v.data(), tau.data(), qdd.data(), nullptr), 2);
+  EXPECT_NE(std::string(a02::last_error()).find("'B_"), std::string::npos)
+      << a02::last_error();
+  namespace prox = published_a02_proximal;
+  ASSERT_EQ(prox::forward_dynamics(q.data(), v.data(), tau.data(), qdd.data(), nullptr), 0)
+      << prox::last_error();
+  EXPECT_TRUE(prox::last_solve_regularized());
+  Mat M(n, n), Phiq(m, n);
+  Vec h(n), gamma(m);
+  prox::mass_matrix(q.data(), M.data());
+  prox::bias_forces(q.data(), v.data(), h.data());
+  prox::constraint_jacobian(q.data(), Phiq.data());
+  prox::constraint_gamma(q.data(), v.data(), gamma.data());
+  const Eigen::Map<const Vec> a(qdd.data(), n);
+  EXPECT_LE((Phiq * a - gamma).lpNorm<Eigen::Infinity>(), 1e-9);
+  const Mat N = Phiq.fullPivLu().kernel();
+  EXPECT_EQ(N.cols(), kN + 1);
+  EXPECT_LE((N.transpose() * (M * a + h)).lpNorm<Eigen::Infinity>(), 1e-9 * h.norm());
+}
+
+// ---- A04: Bricard --------------------------------------------------------------------
+
+std::string run(const std::string& cmd) {
+  std::string out;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return out;
+  char buf[512];
+  while (std::fgets(buf, sizeof buf, p)) out += buf;
+  pclose(p);
+  return out;
+}
+
+TEST(IftommA04, RedundantRowDroppedAndSaid) {
+  namespace b = published_a04;
+  EXPECT_EQ(b::nv, 5);
+  EXPECT_EQ(b::nc, 4);  // 5 rows of the revolute cut J6, rank 4: one degree of freedom
+  const std::string out = run(std::string(JRGEN_EXECUTABLE) + " " JRGEN_SOURCE_DIR
+                              "/models/iftomm_a04_bricard.urdf -o " JRGEN_BINARY_DIR
+                              "/published_a04_check.cpp --gravity 0,-9.81,0 2>&1");
+  EXPECT_NE(out.find("'J6': 1 of its 5 rows"), std::string::npos) << out;
+  EXPECT_NE(out.find("dropped"), std::string::npos) << out;
+  // The figure's configuration (q = 0) is assembled, and the mechanism moves (1 dof).
+  const double q[5] = {0, 0, 0, 0, 0};
+  double phi[4], Phiq[4 * 5];
+  b::constraints(q, phi);
+  for (double p : phi) EXPECT_LE(std::abs(p), 1e-15);
+  b::constraint_jacobian(q, Phiq);
+  EXPECT_EQ(Eigen::Map<const Mat>(Phiq, 4, 5).fullPivLu().rank(), 4);
+}
+
+// ---- A05: the flyball governor --------------------------------------------------------
+
+TEST(IftommA05, SizesAndStart) {
+  namespace f = published_a05;
+  EXPECT_EQ(f::nv, 4);
+  EXPECT_EQ(f::nc, 0);  // a tree: the couplers are springs
+  // Published start: s = 0.5, alpha = 30 deg, omega = 2 pi; the springs at rest length, so
+  // the balls' only load is gravity and the centrifugal force: the shaft keeps its speed.
+  const double q[4] = {0, 0.5, M_PI / 6, M_PI / 6}, v[4] = {2 * M_PI, 0, 0, 0};
+  double tau[4] = {0, 0, 0, 0}, qdd[4];
+  ASSERT_EQ(f::forward_dynamics(q, v, tau, qdd, nullptr), 0) << f::last_error();
+  EXPECT_NEAR(qdd[0], 0, 1e-12);
+  EXPECT_NEAR(qdd[2], qdd[3], 1e-12);  // symmetric
+}
+
+}  // namespace
