@@ -88,11 +88,40 @@ std::vector<jr::CutModel> cut_models(const topology::Tree& tree) {
   return out;
 }
 
+std::vector<jr::SpringModel> spring_models(const topology::Tree& tree) {
+  std::vector<jr::SpringModel> out;
+  for (const topology::Spring& s : tree.springs) {
+    jr::SpringModel sm{};
+    sm.name = s.name.c_str();
+    sm.body_k = s.body_k;
+    sm.body_l = s.body_l;
+    copy3(s.p_k, sm.p_k);
+    copy3(s.p_l, sm.p_l);
+    sm.stiffness = s.stiffness;
+    sm.damping = s.damping;
+    sm.rest_length = s.rest_length;
+    out.push_back(sm);
+  }
+  return out;
+}
+
+std::vector<jr::JointForceModel> joint_force_models(const topology::Tree& tree) {
+  std::vector<jr::JointForceModel> out;
+  for (std::size_t i = 0; i < tree.bodies.size(); ++i) {
+    const topology::Body& b = tree.bodies[i];
+    if (b.stiffness != 0.0 || b.force != 0.0)
+      out.push_back({static_cast<std::int32_t>(i), b.stiffness, b.rest, b.force});
+  }
+  return out;
+}
+
 RuntimeModel::RuntimeModel(const topology::Tree& tree, const Eigen::Vector3d& gravity)
     : dof_parent_(tree.dof_parent.begin(), tree.dof_parent.end()),
       dof_user_(tree.dof_user.begin(), tree.dof_user.end()),
       col_start_(tree.M_col_start.begin(), tree.M_col_start.end()),
       cuts_(cut_models(tree)),
+      springs_(spring_models(tree)),
+      joint_forces_(joint_force_models(tree)),
       workspace_(new jr::BodyState[tree.bodies.size()]),
       motion_(new jr::BodyMotion[tree.bodies.size()]) {
   for (const topology::Body& b : tree.bodies) bodies_.push_back(body_model(b));
@@ -113,6 +142,8 @@ RuntimeModel::RuntimeModel(const topology::Tree& tree, const Eigen::Vector3d& gr
     constraints_.phiq_nnz += kept * c.num_dofs;
   }
   constraints_.cuts = cuts_.data();
+  forces_ = {static_cast<std::int32_t>(springs_.size()), springs_.data(),
+             static_cast<std::int32_t>(joint_forces_.size()), joint_forces_.data()};
 }
 
 }  // namespace jrgen::analysis

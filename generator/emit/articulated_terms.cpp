@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include "emit/force_elements.hpp"
+
 namespace jrgen::emit {
 
 namespace {
@@ -106,6 +108,10 @@ ArticulatedResult articulated_body(Program& P, const topology::Tree& t, const st
     IA[i] = I;
     pA[i] = cross_force(motion[i].v, times(I, motion[i].v));  // velocity-product force
   }
+  // The force elements' part of h (section 2b) enters as tau - h_forces, as
+  // the runtime's articulated-body route passes it.
+  std::vector<Value> h_forces(t.nv, 0.0);
+  add_force_elements(P, t, frames, motion, h_forces);
   std::vector<Sweep> sw(nb);
   ArticulatedResult out;
   out.qdd.assign(t.nv, 0.0);
@@ -125,6 +131,7 @@ ArticulatedResult articulated_body(Program& P, const topology::Tree& t, const st
     for (int k = 0; k < n; ++k) out.pivots[b.v_lem + k] = piv[k];
     for (int k = 0; k < n; ++k) {
       Value uk = P.input(fmt::format("{}[{}]", tau, b.v_user + k));
+      if (t.has_force_elements()) uk = uk - h_forces[b.v_lem + k];
       if (b.damping != 0.0) uk = uk - b.damping * P.input(fmt::format("{}[{}]", v, b.v_user + k));
       s.u.push_back(uk - dot6(frames[i].S[k], pA[i]));
     }

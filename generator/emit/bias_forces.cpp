@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include "emit/force_elements.hpp"
 #include "emit/mass_matrix.hpp"
 
 namespace jrgen::emit {
@@ -54,6 +55,7 @@ std::vector<Value> bias_forces(Program& P, const topology::Tree& t, const std::v
     }
     if (b.parent_lem >= 0) f[b.parent_lem] = f[b.parent_lem] + force_to_parent(frames[i], f[i]);
   }
+  add_force_elements(P, t, frames, motion, h);  // springs, joint springs, joint forces (section 2b)
   return h;
 }
 

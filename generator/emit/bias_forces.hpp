@@ -6,7 +6,8 @@
 // (runtime/src/runtime.cpp): forward sweep (root end first) for the body
 // accelerations, with gravity as the base's acceleration -g; per body
 // f = I a + v x* I v; backward sweep (leaves first, Lemma 2 order) carrying f
-// to the parent; h_j = S_j^T f (+ damping_j v_j).
+// to the parent; h_j = S_j^T f (+ damping_j v_j); then the force elements
+// (emit/force_elements.hpp), as jr::force_elements adds them.
 #pragma once
 
 #include <string>

@@ -145,7 +145,9 @@ void terms_values(const topology::Tree& t, const Options& options, const Steps12
 // Step 3 and the API: a tree gets no constraint code at all.
 std::string constraint_values(const LoopCode& loops, const Plan& plan, int nc, TemplateValues api,
                               TemplateValues& v) {
-  v["constraint_tables"] = loops.tables;
+  // The force elements' tables (model_tables) follow the cut joints'.
+  v["constraint_tables"] = loops.tables + v["force_tables"];
+  v.erase("force_tables");
   v["constraint_workspace"] = loops.workspace;
   v["step3"] = loops.step3;
   if (nc == 0) return render_template("api_tree.cpp.tmpl", template_text("api_tree.cpp.tmpl"), api);

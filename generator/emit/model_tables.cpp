@@ -39,6 +39,7 @@ const char* cut_kind(ir::CutType type) {
     case ir::CutType::Universal: return "jr::CutKind::kUniversal";
     case ir::CutType::Fixed: return "jr::CutKind::kFixed";
     case ir::CutType::Distance: return "jr::CutKind::kDistance";
+    case ir::CutType::Mimic: return "jr::CutKind::kMimic";
   }
   return "?";
 }
@@ -88,6 +89,42 @@ std::string body_tables(const topology::Tree& t) {
   return out;
 }
 
+// kForces (INTERFACE.md section 2b: springs, joint springs, joint forces) for
+// the runtime's force_elements() and potential_energy(); nothing for a model
+// without them (forces_ptr: nullptr).
+void force_tables(const topology::Tree& t, TemplateValues& v) {
+  const std::vector<jr::SpringModel> springs = analysis::spring_models(t);
+  const std::vector<jr::JointForceModel> joints = analysis::joint_force_models(t);
+  v["forces_ptr"] = springs.empty() && joints.empty() ? "nullptr" : "&kForces";
+  v["force_tables"] = "";
+  if (springs.empty() && joints.empty()) return;
+  auto v3 = [](const double* p) { return fmt::format("{{{}, {}, {}}}", num(p[0]), num(p[1]), num(p[2])); };
+  std::string s = "\n// ---- Force elements (springs, joint springs, joint forces) -------------------\n";
+  std::string spring_array = "nullptr", joint_array = "nullptr";
+  if (!springs.empty()) {
+    s += "// Per spring: name, body k, body l, point on k, point on l (body frames),\n"
+         "// stiffness, damping, rest length.\n";
+    s += fmt::format("constexpr jr::SpringModel kSprings[{}] = {{\n", springs.size());
+    for (const jr::SpringModel& m : springs)
+      s += fmt::format("{{{}, {}, {}, {}, {}, {}, {}, {}}},\n", c_string(m.name), m.body_k, m.body_l, v3(m.p_k),
+                       v3(m.p_l), num(m.stiffness), num(m.damping), num(m.rest_length));
+    s += "};\n";
+    spring_array = "kSprings";
+  }
+  if (!joints.empty()) {
+    s += "// Per one-dof joint: body, joint spring stiffness and rest, joint force.\n";
+    s += fmt::format("constexpr jr::JointForceModel kJointForces[{}] = {{\n", joints.size());
+    for (const jr::JointForceModel& m : joints)
+      s += fmt::format("{{{}, {}, {}, {}}},  // '{}'\n", m.body, num(m.stiffness), num(m.rest), num(m.force),
+                       comment_text(t.bodies[m.body].joint_name));
+    s += "};\n";
+    joint_array = "kJointForces";
+  }
+  s += fmt::format("constexpr jr::ForceModel kForces = {{{}, {}, {}, {}}};", springs.size(), spring_array,
+                   joints.size(), joint_array);
+  v["force_tables"] = s;
+}
+
 }  // namespace
 
 void model_tables(const topology::Tree& t, const Options& options, TemplateValues& v) {
@@ -111,6 +148,7 @@ void model_tables(const topology::Tree& t, const Options& options, TemplateValue
   v["dof_user"] = join_ints(t.dof_user);
   v["col_start"] = join_ints(t.M_col_start);
   v["dof_joint"] = join_ints(dof_joint);
+  force_tables(t, v);
   v["model_init"] = fmt::format("{}, {}, {}, kBodies, kDofParent, kDofUser, kMColStart, {{{}, {}, {}}}", nb, t.nq, t.nv,
                                 num(options.gravity[0]), num(options.gravity[1]), num(options.gravity[2]));
 }

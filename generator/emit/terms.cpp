@@ -26,7 +26,29 @@ std::string bias_terms(const topology::Tree& t, const Options& options) {
   std::string bias = "Coriolis and centrifugal terms";
   if (!options.gravity.isZero(0.0)) bias += ", gravity";
   if (has_damping(t)) bias += ", joint damping";
+  if (t.has_force_elements()) bias += ", springs and joint forces";
   return bias;
+}
+
+// The runtime's part of h from the force elements (section 2b), added to the
+// h in `h` (Lemma 2 order); nothing for a model without them.
+std::string runtime_forces_text(const topology::Tree& t, const std::string& h) {
+  if (!t.has_force_elements()) return "";
+  return fmt::format("  jr::force_elements(kModel, kForces, g_bodies, q, v, {});  // springs, joint forces\n", h);
+}
+
+// For the runtime's articulated-body routes, which read tau: g_tau = tau - the
+// force elements' part of h (user order), and the name of the array to pass.
+std::string runtime_forces_tau(const topology::Tree& t, std::string& tau) {
+  tau = "tau";
+  if (!t.has_force_elements()) return "";
+  tau = "g_tau";
+  return "  for (std::int32_t j = 0; j < nv; ++j) g_z[j] = 0.0;\n" + runtime_forces_text(t, "g_z") +
+         "  for (std::int32_t j = 0; j < nv; ++j) g_tau[kDofUser[j]] = tau[kDofUser[j]] - g_z[j];\n";
+}
+
+std::string runtime_tau_workspace(const topology::Tree& t) {
+  return t.has_force_elements() ? "thread_local double g_tau[nv];  // tau - the force elements' part of h\n" : "";
 }
 
 std::string runtime_flags(const topology::Tree& t, const Options& options) {
@@ -41,9 +63,9 @@ std::string runtime_terms_text(const topology::Tree& t, const Options& options) 
       "  // M, eq. (18), by the composite-rigid-body recursion, eq. (14).\n"
       "  jr::mass_matrix_packed(kModel, g_bodies, g_L);\n"
       "  // Q = tau - h ({}).\n"
-      "  jr::bias_forces{}(kModel, g_bodies, v, g_z);\n"
+      "  jr::bias_forces{}(kModel, g_bodies, v, g_z);\n{}"
       "  for (std::int32_t j = 0; j < nv; ++j) g_z[j] = tau[kDofUser[j]] - g_z[j];\n",
-      bias_terms(t, options), runtime_flags(t, options));
+      bias_terms(t, options), runtime_flags(t, options), runtime_forces_text(t, "g_z"));
 }
 
 // The runtime's route of a tree: its terms, then the generated Steps 1, 2, 4.
@@ -276,16 +298,18 @@ TermsBlock runtime_block(const topology::Tree& t, const Options& options, long l
   block.include = "#include <jrgen/articulated.hpp>\n";
   block.definitions = fmt::format(
       "// ---- forward_dynamics: the runtime's articulated-body algorithm, O(n) ----\n"
-      "thread_local jr::ArticulatedState g_articulated[{}];\n\n{}",
-      t.bodies.size(), kCheckArticulated);
+      "thread_local jr::ArticulatedState g_articulated[{}];\n{}\n{}",
+      t.bodies.size(), runtime_tau_workspace(t), kCheckArticulated);
+  std::string tau;
+  const std::string forces = runtime_forces_tau(t, tau);
   block.fd_body = fmt::format(
       "  // The runtime's articulated-body algorithm (O(n)): qdd in g_z and the\n"
       "  // pivots D in g_Dinv, Lemma 2 order; a failed pivot stops it (check_articulated).\n"
-      "  jr::kinematics(kModel, g_bodies, q);\n"
-      "  jr::articulated_dynamics{}(kModel, g_bodies, g_articulated, v, tau, g_z, g_Dinv);\n"
+      "  jr::kinematics(kModel, g_bodies, q);\n{}"
+      "  jr::articulated_dynamics{}(kModel, g_bodies, g_articulated, v, {}, g_z, g_Dinv);\n"
       "  scatter_qdd(g_z, qdd);\n"
       "  const int status = check_articulated(g_Dinv, qdd);\n",
-      runtime_flags(t, options));
+      forces, runtime_flags(t, options), tau);
   block.summary = fmt::format(
       "forward_dynamics: the runtime's articulated-body algorithm, O(n) (about {} operations; its "
       "composite-rigid-body route and Steps 1, 2, 4 about {})",
@@ -381,9 +405,9 @@ PieceTerms piece_terms(const topology::Tree& t, const Options& options) {
   if (pieces.bias_forces_body.empty())
     pieces.bias_forces_body = fmt::format(
         "  jr::kinematics(kModel, g_bodies, q);\n"
-        "  jr::bias_forces{}(kModel, g_bodies, v, g_z);\n"
+        "  jr::bias_forces{}(kModel, g_bodies, v, g_z);\n{}"
         "  for (std::int32_t j = 0; j < nv; ++j) h[kDofUser[j]] = g_z[j];\n",
-        runtime_flags(t, options));
+        runtime_flags(t, options), runtime_forces_text(t, "g_z"));
   if (!pieces.definitions.empty())
     pieces.definitions = "// ---- mass_matrix() and bias_forces(): specialized programs ----\n" + pieces.definitions;
   return pieces;
@@ -406,18 +430,20 @@ TermsBlock loop_terms(const topology::Tree& t, const Options& options, long long
         "// articulated-body solves, W = Phiq Y (Step 3.3's T^T T), W lambda = Phiq a0 - gamma,\n"
         "// qdd = a0 - Y lambda: O(n nc), no M formed.\n"
         "thread_local jr::ArticulatedState g_articulated[{}];\n"
-        "thread_local double g_closed_scratch[{}];\n\n{}\n{}",
-        t.bodies.size(), nc * (t.nv + nc), kCheckArticulated, kCheckClosed);
+        "thread_local double g_closed_scratch[{}];\n{}\n{}\n{}",
+        t.bodies.size(), nc * (t.nv + nc), runtime_tau_workspace(t), kCheckArticulated, kCheckClosed);
+    std::string tau;
+    const std::string forces = runtime_forces_tau(t, tau);
     block.fd_body = fmt::format(
-        "  jr::kinematics(kModel, g_bodies, q);\n"
+        "  jr::kinematics(kModel, g_bodies, q);\n{}"
         "  // Phiq (packed, Lemma 3 pattern) and gamma = -(Phiq v)_q v.\n"
         "  jr::constraint_terms(kModel, kConstraints, g_bodies, g_motion, q, v, nullptr, g_T, g_gamma);\n"
         "  const std::int32_t k = jr::articulated_closed{}(kModel, kConstraints, g_bodies, g_articulated, g_T,\n"
-        "                                                g_gamma, v, tau, g_z, g_zm, g_Dinv, g_Winv,\n"
+        "                                                g_gamma, v, {}, g_z, g_zm, g_Dinv, g_Winv,\n"
         "                                                g_closed_scratch);\n"
         "  scatter_qdd(g_z, qdd);\n"
         "  const int status = check_closed(k, qdd, lambda);\n",
-        runtime_flags(t, options));
+        forces, runtime_flags(t, options), tau);
     block.summary = fmt::format(
         "forward_dynamics: the runtime's kinematics, Phiq and gamma, then its articulated-body route with the "
         "columns of M^-1 Phiq^T, O(n nc) (about {} operations; M and Steps 1-4 about {}; the specialized "

@@ -100,6 +100,7 @@ int cut_rows(CutType type) {
     case CutType::Universal: return 4;
     case CutType::Fixed: return 6;
     case CutType::Distance: return 1;
+    case CutType::Mimic: return 1;
   }
   return 0;
 }
@@ -113,6 +114,7 @@ const char* cut_type_name(CutType type) {
     case CutType::Universal: return "universal";
     case CutType::Fixed: return "fixed";
     case CutType::Distance: return "distance";
+    case CutType::Mimic: return "mimic";
   }
   return "?";
 }

@@ -62,13 +62,17 @@ struct Joint {
   SourceLocation where;
 };
 
-enum class CutType { Spherical, Revolute, Prismatic, Cylindrical, Universal, Fixed, Distance };
+/// Mimic: the one row q_this - multiplier q_leader - offset = 0 of a URDF
+/// <mimic> (INTERFACE.md section 2b), placed among the cut joints.
+enum class CutType { Spherical, Revolute, Prismatic, Cylindrical, Universal, Fixed, Distance, Mimic };
 
 /// Constraint rows of a cut joint type (INTERFACE.md section 2).
 int cut_rows(CutType type);
 const char* cut_type_name(CutType type);
 
 /// A loop-closing joint: constraint between a frame on link k and one on link l.
+/// A mimic row has link_k = the leader joint's child link, link_l = its own
+/// joint's child link, and no frames.
 struct CutJoint {
   std::string name;
   CutType type = CutType::Spherical;
@@ -80,6 +84,39 @@ struct CutJoint {
   Eigen::Vector3d child_axis = Eigen::Vector3d::UnitZ();  ///< <child_axis>, frame on l
   double distance = 0.0;
   bool distance_given = false;  ///< false: distance taken at the zero configuration
+  /// Mimic only: the joints (indices into Robot::joints), q_joint = multiplier q_leader + offset.
+  int mimic_joint = -1, mimic_leader = -1;
+  double multiplier = 1.0, offset = 0.0;
+  SourceLocation where;
+};
+
+// ---- Force elements (INTERFACE.md section 2b) -------------------------------------
+
+/// <spring>: a force along the line between a point on link k (<parent>) and
+/// one on link l (<child>), of magnitude stiffness (L - rest_length) + damping
+/// dL/dt, pulling the points together when positive.
+struct Spring {
+  std::string name;
+  int link_k = -1, link_l = -1;  ///< index into Robot::links (either may be the root)
+  Eigen::Vector3d p_k = Eigen::Vector3d::Zero();  ///< attachment point in k's link frame
+  Eigen::Vector3d p_l = Eigen::Vector3d::Zero();  ///< attachment point in l's link frame
+  double stiffness = 0.0, damping = 0.0, rest_length = 0.0;
+  bool rest_given = false;  ///< false: rest_length is the distance at the zero configuration
+  SourceLocation where;
+};
+
+/// <joint_spring>: generalized force -stiffness (q - rest) - damping v on a
+/// revolute, continuous or prismatic joint.
+struct JointSpring {
+  int joint = -1;  ///< index into Robot::joints
+  double stiffness = 0.0, damping = 0.0, rest = 0.0;
+  SourceLocation where;
+};
+
+/// <joint_force>: a constant generalized force on a one-dof joint (added to tau).
+struct JointForce {
+  int joint = -1;  ///< index into Robot::joints
+  double value = 0.0;
   SourceLocation where;
 };
 
@@ -91,7 +128,12 @@ struct Robot {
   std::string source_file;  ///< the URDF path as given
   std::vector<Link> links;  ///< document order
   std::vector<Joint> joints;  ///< user order (depth-first, siblings in document order)
-  std::vector<CutJoint> cuts;  ///< URDF <loop_joint> first, then --cuts file
+  /// URDF <loop_joint> first, then the <mimic> rows (CutType::Mimic, named
+  /// after their joints, user order), then the --cuts file.
+  std::vector<CutJoint> cuts;
+  std::vector<Spring> springs;             ///< document order
+  std::vector<JointSpring> joint_springs;  ///< document order
+  std::vector<JointForce> joint_forces;    ///< document order
   int root_link = -1;
 
   int find_link(const std::string& name) const;  ///< -1 when absent

@@ -318,8 +318,14 @@ Tree build_tree(const ir::Robot& robot, const MassBounds& bounds) {
     }
     cut.rows = ir::cut_rows(ic.type);
     for (int r = 0; r < cut.rows; ++r) cut.kept_rows.push_back(r);
+    if (ic.type == ir::CutType::Mimic) {
+      cut.num_distinct = static_cast<int>(cut.dofs.size());
+      cut.multiplier = ic.multiplier;
+      cut.offset = ic.offset;
+    }
     tree.cuts.push_back(std::move(cut));
   }
+  place_force_elements(robot, tree);
 
   check_lemma2(tree);
   return tree;

@@ -32,7 +32,10 @@ struct Body {
   ir::Pose X_PJ;  ///< joint frame in the parent *body* frame (fixed joints folded in)
   Eigen::Vector3d axis = Eigen::Vector3d::UnitX();  ///< revolute/prismatic axis, planar normal
   Eigen::Vector3d e1 = Eigen::Vector3d::Zero(), e2 = Eigen::Vector3d::Zero();  ///< planar
-  double damping = 0.0;
+  double damping = 0.0;   ///< URDF <dynamics damping> plus a <joint_spring>'s damping
+  /// One-dof joints (INTERFACE.md section 2b): <joint_spring> stiffness and
+  /// rest, <joint_force> value; generalized force -stiffness (q - rest) + force.
+  double stiffness = 0.0, rest = 0.0, force = 0.0;
   ir::Inertial inertial;  ///< fused mass properties, body frame
   std::vector<int> links;  ///< ir links carried, child link first
 };
@@ -67,6 +70,20 @@ struct Cut {
   int num_distinct = 0;
   int rows = 0;                ///< rows of the cut type
   std::vector<int> kept_rows;  ///< rows kept after the redundancy analysis (all by default)
+  /// Mimic rows (ir::CutType::Mimic): body_k carries the leader joint, body_l
+  /// the mimic joint; Phi = q_l - multiplier q_k - offset.  Every dof of
+  /// `dofs` counts as distinct (num_distinct = dofs.size()): the leader may
+  /// be an ancestor of the mimic joint.
+  double multiplier = 1.0, offset = 0.0;
+};
+
+/// A <spring> placed on the body tree (INTERFACE.md section 2b).
+struct Spring {
+  std::string name;
+  int spring_ir = -1;          ///< index into ir::Robot::springs
+  int body_k = -1, body_l = -1;  ///< Lemma 2 bodies; -1: the fixed base
+  Eigen::Vector3d p_k = Eigen::Vector3d::Zero(), p_l = Eigen::Vector3d::Zero();  ///< points, body frames
+  double stiffness = 0.0, damping = 0.0, rest_length = 0.0;  ///< rest_length resolved
 };
 
 struct Tree {
@@ -81,10 +98,14 @@ struct Tree {
   std::vector<int> dof_depth;   ///< number of ancestors
   std::vector<int> M_col_start; ///< packed column starts (nv + 1): rows j, parent(j), ...
   std::vector<Cut> cuts;        ///< in ir::Robot::cuts order
+  std::vector<Spring> springs;  ///< in ir::Robot::springs order
   std::vector<std::string> notes;  ///< for stderr (bodies raised to MassBounds)
 
   /// Kept constraint rows (nc).
   int nc() const;
+  /// True when a spring, a joint spring's stiffness or a joint force acts
+  /// (a joint spring's damping is in Body::damping).
+  bool has_force_elements() const;
 
   int nnz() const { return M_col_start.empty() ? 0 : M_col_start.back(); }
   /// Packed position of (row, col), row an ancestor of or equal to col.
@@ -141,6 +162,14 @@ struct MassBounds {
 /// singular for structural reasons (a moving body that carries no mass) and
 /// for any non-finite constant (a frame or a fused inertia that overflows).
 Tree build_tree(const ir::Robot& robot, const MassBounds& bounds = {});
+
+/// Places robot.springs, joint_springs and joint_forces on the bodies of
+/// `tree` (called by build_tree; generator/topology/forces.cpp).  A spring
+/// without rest_length takes its points' distance at the zero configuration;
+/// throws jrgen::Error when that distance is zero (the direction of the force
+/// at rest would be undefined), when both points sit on one body after fixed
+/// joints are fused, or when a placed point overflows.
+void place_force_elements(const ir::Robot& robot, Tree& tree);
 
 /// The precondition the generated factorization relies on (STYLE.md section 5,
 /// as Pinocchio's CRBA checker): parent after child, dof chains consistent,

@@ -11,10 +11,13 @@
 //      dummy <limit> where urdfdom insists on one.  Everything we ignore
 //      (visuals, collisions, limits, mimic, transmissions, gazebo) is left out,
 //      so urdfdom cannot fail on it.  console_bridge is silenced meanwhile.
+//      (<mimic> is read by the pre-pass: step 5.)
 //   4. ir::Robot is assembled from urdfdom's values, links in document order,
 //      joints in user order (depth-first from the root, children in document
 //      order of their joint elements).
-//   5. Cut joints: <loop_joint> and <drake:ball_constraint>, document order.
+//   5. Cut joints: <loop_joint> and <drake:ball_constraint>, document order;
+//      then each joint's <mimic> as a one-row cut (CutType::Mimic); then the
+//      force elements <spring>, <joint_spring>, <joint_force> (section 2b).
 #include "urdf/urdf_reader.hpp"
 
 #include <console_bridge/console.h>
@@ -297,6 +300,7 @@ struct RobotXml {
   std::vector<JointXml> joints;  ///< document order (<joint> and <drake:joint>)
   std::map<std::string, int> link_index;
   std::vector<const TiXmlElement*> cut_elements;  ///< <loop_joint>, <drake:ball_constraint>
+  std::vector<const TiXmlElement*> force_elements;  ///< <spring>, <joint_spring>, <joint_force>
 };
 
 /// Checks <inertial>: mass present, finite and >= 0; inertia present with six
@@ -541,6 +545,8 @@ RobotXml read_robot_xml(const Doc& doc, const TiXmlDocument& xml, const ReadOpti
       read_joint_xml(doc, e, robot, joint_index);
     else if (is_tag(e, "loop_joint") || is_tag(e, "drake:ball_constraint"))
       robot.cut_elements.push_back(e);
+    else if (is_tag(e, "spring") || is_tag(e, "joint_spring") || is_tag(e, "joint_force"))
+      robot.force_elements.push_back(e);
   }
   return robot;
 }
@@ -746,6 +752,145 @@ ir::CutJoint read_ball_constraint(const Doc& doc, const TiXmlElement* e, int num
   return cut;
 }
 
+// ---------------------------------------------------------------------------
+// Force elements and mimic rows (INTERFACE.md section 2b)
+// ---------------------------------------------------------------------------
+
+int find_joint(const ir::Robot& robot, const std::string& name) {
+  for (std::size_t j = 0; j < robot.joints.size(); ++j)
+    if (robot.joints[j].name == name) return static_cast<int>(j);
+  return -1;
+}
+
+bool one_dof(ir::JointType type) {
+  return type == ir::JointType::Revolute || type == ir::JointType::Continuous ||
+         type == ir::JointType::Prismatic;
+}
+
+/// Attribute `attr` of `e` as one finite number >= 0; `fallback` when absent
+/// (nullopt: the attribute is required).
+double non_negative(const Doc& doc, const TiXmlElement* e, const char* attr, const Owner& owner,
+                    std::optional<double> fallback) {
+  const auto value = read_scalar(doc, e, attr, owner);
+  if (!value && !fallback)
+    doc.fail(e, owner, std::string("missing ") + attr + " attribute; give " + attr + "=\"...\" (>= 0, SI units)");
+  const double x = value ? *value : *fallback;
+  if (x < 0.0)
+    doc.fail(e, owner, std::string("negative ") + attr + " " + format_number(x) + "; " + attr + " must be >= 0");
+  return x;
+}
+
+/// The joint named by attribute `attr` of `e`: defined, and with one dof.
+int one_dof_joint(const Doc& doc, const TiXmlElement* e, const char* attr, const Owner& owner,
+                  const ir::Robot& robot) {
+  const char* name = attribute(e, attr);
+  if (name == nullptr || *name == '\0')
+    doc.fail(e, owner,
+             std::string("missing ") + attr + " attribute; name the revolute, continuous or prismatic joint");
+  const int j = find_joint(robot, name);
+  if (j < 0) doc.fail(e, owner, "joint " + quote(name) + " is not defined in robot " + quote(robot.name));
+  if (!one_dof(robot.joints[j].type))
+    doc.fail(e, owner,
+             "joint " + quote(name) + " is " + ir::joint_type_name(robot.joints[j].type) + "; <" + e->Value() +
+                 "> acts on a revolute, continuous or prismatic joint only");
+  return j;
+}
+
+ir::Spring read_spring(const Doc& doc, const TiXmlElement* e, const ir::Robot& robot) {
+  ir::Spring spring;
+  spring.name = required_name(doc, e);
+  spring.where = doc.at(e);
+  const Owner owner{"spring", spring.name};
+  for (const ir::Spring& other : robot.springs)
+    if (other.name == spring.name)
+      doc.fail(e, owner,
+               "duplicate spring name (first defined at line " + std::to_string(other.where.line) + "); rename one");
+  spring.stiffness = non_negative(doc, e, "stiffness", owner, std::nullopt);
+  spring.damping = non_negative(doc, e, "damping", owner, 0.0);
+  if (attribute(e, "rest_length") != nullptr) {
+    spring.rest_length = non_negative(doc, e, "rest_length", owner, std::nullopt);
+    spring.rest_given = true;
+  }
+  spring.link_k = cut_link(doc, e, "parent", "link", owner, robot);
+  spring.link_l = cut_link(doc, e, "child", "link", owner, robot);
+  if (spring.link_k == spring.link_l)
+    doc.fail(e, owner,
+             "both points are on link " + quote(robot.links[spring.link_k].name) +
+                 "; a spring joins two different links (one may be the fixed root)");
+  spring.p_k = read_vec3(doc, e->FirstChildElement("parent"), "xyz", owner, Eigen::Vector3d::Zero());
+  spring.p_l = read_vec3(doc, e->FirstChildElement("child"), "xyz", owner, Eigen::Vector3d::Zero());
+  return spring;
+}
+
+ir::JointSpring read_joint_spring(const Doc& doc, const TiXmlElement* e, const ir::Robot& robot) {
+  const char* joint = attribute(e, "joint");
+  const Owner owner{"joint_spring", joint != nullptr ? joint : ""};
+  ir::JointSpring spring;
+  spring.joint = one_dof_joint(doc, e, "joint", owner, robot);
+  spring.where = doc.at(e);
+  for (const ir::JointSpring& other : robot.joint_springs)
+    if (other.joint == spring.joint)
+      doc.fail(e, owner,
+               "a second <joint_spring> on this joint (first at line " + std::to_string(other.where.line) +
+                   "); merge them into one");
+  spring.stiffness = non_negative(doc, e, "stiffness", owner, std::nullopt);
+  spring.damping = non_negative(doc, e, "damping", owner, 0.0);
+  const auto rest = read_scalar(doc, e, "rest", owner);
+  spring.rest = rest ? *rest : 0.0;
+  return spring;
+}
+
+ir::JointForce read_joint_force(const Doc& doc, const TiXmlElement* e, const ir::Robot& robot) {
+  const char* joint = attribute(e, "joint");
+  const Owner owner{"joint_force", joint != nullptr ? joint : ""};
+  ir::JointForce force;
+  force.joint = one_dof_joint(doc, e, "joint", owner, robot);
+  force.where = doc.at(e);
+  for (const ir::JointForce& other : robot.joint_forces)
+    if (other.joint == force.joint)
+      doc.fail(e, owner,
+               "a second <joint_force> on this joint (first at line " + std::to_string(other.where.line) +
+                   "); add their values into one");
+  const auto value = read_scalar(doc, e, "value", owner);
+  if (!value) doc.fail(e, owner, "missing value attribute; give value=\"...\" (N m or N)");
+  force.value = *value;
+  return force;
+}
+
+void read_force_elements(const Doc& doc, const RobotXml& xml, ir::Robot& robot) {
+  for (const TiXmlElement* e : xml.force_elements) {
+    if (is_tag(e, "spring")) robot.springs.push_back(read_spring(doc, e, robot));
+    else if (is_tag(e, "joint_spring")) robot.joint_springs.push_back(read_joint_spring(doc, e, robot));
+    else robot.joint_forces.push_back(read_joint_force(doc, e, robot));
+  }
+}
+
+/// URDF <mimic joint multiplier offset> of tree joint `j` (nullopt when it has
+/// none): the row q_j - multiplier q_leader - offset = 0, named after joint j.
+std::optional<ir::CutJoint> read_mimic(const Doc& doc, const TiXmlElement* joint_xml, int j,
+                                       const ir::Robot& robot) {
+  const TiXmlElement* e = joint_xml->FirstChildElement("mimic");
+  if (e == nullptr) return std::nullopt;
+  const ir::Joint& joint = robot.joints[j];
+  const Owner owner{joint_xml->Value(), joint.name};
+  if (!one_dof(joint.type))
+    doc.fail(e, owner,
+             std::string("<mimic> on a ") + ir::joint_type_name(joint.type) +
+                 " joint; only revolute, continuous and prismatic joints can mimic another");
+  ir::CutJoint row;
+  row.name = joint.name;
+  row.type = ir::CutType::Mimic;
+  row.where = doc.at(e);
+  row.mimic_joint = j;
+  row.mimic_leader = one_dof_joint(doc, e, "joint", owner, robot);
+  if (row.mimic_leader == j) doc.fail(e, owner, "<mimic> names its own joint; name the joint it follows");
+  row.multiplier = read_scalar(doc, e, "multiplier", owner).value_or(1.0);
+  row.offset = read_scalar(doc, e, "offset", owner).value_or(0.0);
+  row.link_k = robot.joints[row.mimic_leader].child_link;
+  row.link_l = joint.child_link;
+  return row;
+}
+
 CutNames names_in_use(const ir::Robot& robot) {
   CutNames names;
   for (const ir::Joint& j : robot.joints)
@@ -822,8 +967,10 @@ ir::Robot read_robot_string(const std::string& xml, const std::string& display_n
   for (std::size_t j = 0; j < robot_xml.joints.size(); ++j)
     child_joints[robot_xml.joints[j].parent_link].push_back(static_cast<int>(j));
   std::vector<int> stack(child_joints[root].rbegin(), child_joints[root].rend());
+  std::vector<const TiXmlElement*> joint_xml_of;  // per ir joint
   while (!stack.empty()) {
     const JointXml& joint_xml = robot_xml.joints[stack.back()];
+    joint_xml_of.push_back(joint_xml.xml);
     stack.pop_back();
     const auto joint = model->getJoint(joint_xml.name);
     if (!joint) throw urdfdom_failed;
@@ -845,7 +992,7 @@ ir::Robot read_robot_string(const std::string& xml, const std::string& display_n
     stack.insert(stack.end(), next.rbegin(), next.rend());
   }
 
-  // Cut joints written in the URDF, document order.
+  // Cut joints written in the URDF, document order, then the mimic rows.
   CutNames names = names_in_use(robot);
   int ball_constraints = 0;
   for (const TiXmlElement* e : robot_xml.cut_elements) {
@@ -854,6 +1001,9 @@ ir::Robot read_robot_string(const std::string& xml, const std::string& display_n
     else
       robot.cuts.push_back(read_ball_constraint(doc, e, ++ball_constraints, robot, names));
   }
+  // <mimic> is validated here; its rows join the cuts with the constraint kind (to come).
+  for (std::size_t j = 0; j < robot.joints.size(); ++j) read_mimic(doc, joint_xml_of[j], static_cast<int>(j), robot);
+  read_force_elements(doc, robot_xml, robot);
   return robot;
 }
 

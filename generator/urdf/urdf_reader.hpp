@@ -7,7 +7,9 @@
 //   - <joint type="ball"> and Drake's <drake:joint type="ball">: ball joints;
 //   - <loop_joint> inside <robot>, and <loop_joints> files given with --cuts;
 //   - Drake's <drake:ball_constraint>: a spherical cut joint.
-// Mimic joints, transmissions, gazebo tags, visuals and collisions are ignored.
+//   - <mimic>: a one-row cut q_this = multiplier q_leader + offset (section 2b);
+//   - <spring>, <joint_spring>, <joint_force> inside <robot> (section 2b).
+// Transmissions, gazebo tags, visuals and collisions are ignored.
 //
 // Every error is a jrgen::Error whose what() is one line,
 // "file:line: <element> 'name': what is wrong" (STYLE.md section 5).

@@ -134,6 +134,52 @@ void pack_mass_matrix(const Model& model, const double* M_user, double* Mp);
 /// ancestor of (or equal to) col; -1 when structurally zero.
 std::int32_t packed_index(const Model& model, std::int32_t row_lem, std::int32_t col_lem);
 
+// ---- Force elements (INTERFACE.md section 2b) -----------------------------------
+//
+// Springs, joint springs and joint forces are part of h (Q = tau - h):
+//   spring (points a on body k, b on body l, d = b - a, L = |d|): the force
+//     F = stiffness (L - rest_length) + damping dL/dt pulls the points
+//     together, f_b = -F d / L on b and f_a = -f_b on a; h -= J_b^T f_b + J_a^T f_a;
+//   joint spring and joint force on a one-dof joint: h += stiffness (q - rest) - force
+//     (the joint spring's damping is in BodyModel::damping).
+// L is computed as sqrt(d.d + kSpringLengthGuard): where the points coincide
+// (no direction) the force is zero, and for L > 1e-142 m the guard changes no
+// bit of L (1e-300 is below half an ulp of d.d there).  The potential is
+//   V = -sum_b m_b g . c_b + sum_springs 1/2 k (L - L0)^2 + sum_joints 1/2 k (q - rest)^2
+// (c_b the world centre of mass), so h(q, 0) = dV/dq - force.
+
+inline constexpr double kSpringLengthGuard = 1e-300;
+
+struct SpringModel {
+  const char* name;       ///< the <spring>, for diagnostics
+  std::int32_t body_k;    ///< Lemma 2 body of point a, -1: the fixed base
+  std::int32_t body_l;    ///< Lemma 2 body of point b, -1: the fixed base
+  double p_k[3];          ///< a in body k's frame
+  double p_l[3];          ///< b in body l's frame
+  double stiffness, damping, rest_length;
+};
+
+/// A one-dof joint's <joint_spring> stiffness and rest, and <joint_force>.
+struct JointForceModel {
+  std::int32_t body;  ///< Lemma 2 body of the joint (nv = 1)
+  double stiffness, rest, force;
+};
+
+struct ForceModel {
+  std::int32_t nsprings;
+  const SpringModel* springs;
+  std::int32_t njoints;
+  const JointForceModel* joints;
+};
+
+/// Adds the force elements' part of h (Lemma 2 order) at (q, v) to h_lem.
+/// Needs kinematics(); overwrites the world poses (world_poses()).
+void force_elements(const Model& model, const ForceModel& forces, BodyState* bodies, const double* q,
+                    const double* v, double* h_lem);
+
+/// V(q) above (forces may be nullptr: gravity alone).  Runs kinematics().
+double potential_energy(const Model& model, const ForceModel* forces, BodyState* bodies, const double* q);
+
 // ---- Cut joints (closed loops) ------------------------------------------------
 //
 // A cut joint constrains a joint frame Fk fixed on body k to a joint frame Fl

@@ -44,6 +44,13 @@ void constraints(const double* q, double* phi);                 // nc
 void constraint_jacobian(const double* q, double* Phiq);        // nc x nv
 void constraint_gamma(const double* q, const double* v, double* gamma);  // nc
 
+// Extra (beyond INTERFACE.md section 4): the potential energy V(q) of
+// gravity (-sum over bodies of m g . c, c the world centre of mass), springs
+// (1/2 k (L - L0)^2) and joint springs (1/2 k (q - rest)^2), INTERFACE.md
+// section 2b.  A <joint_force> does work that V leaves out: at v = 0,
+// bias_forces = dV/dq - the joint forces.
+double potential_energy(const double* q);
+
 // One line describing the last failure in this thread (the joint or loop
 // involved), or "" after a success.
 const char* last_error();

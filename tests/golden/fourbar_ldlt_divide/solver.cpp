@@ -1247,5 +1247,7 @@ void bias_forces(const double* q, const double* v, double* h) {
   bias_forces_terms(q, v, h);  // specialized (user order)
 }
 
+double potential_energy(const double* q) { return jr::potential_energy(kModel, nullptr, g_bodies, q); }
+
 const char* last_error() { return g_error; }
 }  // namespace fourbar
