@@ -30,6 +30,22 @@ constexpr double kG = 9.81;
 using Mat = Eigen::MatrixXd;
 using Vec = Eigen::VectorXd;
 
+// A test-only classical Runge-Kutta step of fixed size for q' = v, v' = qdd(q, v) (revolute
+// and prismatic coordinates only, nq = nv): the published trajectories below need no more,
+// and it keeps these checks independent of the simulation layer (jrgen/simulate.hpp).
+template <class Fd>
+void rk4_step(Fd&& qdd_of, double h, Vec& q, Vec& v) {
+  const Vec a1 = qdd_of(q, v);
+  const Vec q2 = q + 0.5 * h * v, v2 = v + 0.5 * h * a1;
+  const Vec a2 = qdd_of(q2, v2);
+  const Vec q3 = q + 0.5 * h * v2, v3 = v + 0.5 * h * a2;
+  const Vec a3 = qdd_of(q3, v3);
+  const Vec q4 = q + h * v3, v4 = v + h * a3;
+  const Vec a4 = qdd_of(q4, v4);
+  q += h / 6 * (v + 2 * v2 + 2 * v3 + v4);
+  v += h / 6 * (a1 + 2 * a2 + 2 * a3 + a4);
+}
+
 // ---- Andrews' squeezer: the test set's coordinates y <-> jrgen's user order ------------
 
 namespace and_jr = published_andrews;
@@ -233,6 +249,38 @@ TEST(Andrews, AccelerationAtPublishedEndState) {
       << r.qdd.transpose() << "\n" << w_pub.transpose();
 }
 
+// The published trajectory: from the published start, jrgen's forward dynamics integrated
+// to t = 0.03 (test-only RK4, fixed step; velocity-level constraints only, no projection)
+// reaches the test set's reference angles (PSIDE, tol 1e-14).  The crank turns 2.5 times
+// and the speeds reach 1.4e3 rad/s.  Measured (2026-12-04, 60000 steps, h = 5e-7 s):
+// 9.1e-11 relative in the angles, 3.8e-10 in the velocities, 0.24 s; RK4's error falls as
+// h^4, so 1e-8 leaves a factor ~100 (and 30000 steps would still pass).
+TEST(Andrews, ReachesThePublishedAnglesAtT003) {
+  constexpr int kSteps = 60000;
+  Vec q = to_jr(andrews_ref::q0), v = Vec::Zero(7);
+  const Vec tau = andrews_tau(andrews_ref::q0);  // constant only when JR_FORCE_ELEMENTS
+  ASSERT_TRUE(JR_FORCE_ELEMENTS) << "the spring's force depends on q: needs <spring> in h";
+  int status = 0;
+  auto qdd_of = [&](const Vec& qq, const Vec& vv) {
+    Vec a(7);
+    status |= and_jr::forward_dynamics(qq.data(), vv.data(), tau.data(), a.data(), nullptr);
+    return a;
+  };
+  const double h = andrews_ref::t_end / kSteps;
+  for (int i = 0; i < kSteps; ++i) rk4_step(qdd_of, h, q, v);
+  ASSERT_EQ(status, 0) << and_jr::last_error();
+  const Vec q_ref = to_jr(andrews_ref::q_end), v_ref = to_jr(andrews_ref::v_end);
+  const double eq = (q - q_ref).cwiseAbs().maxCoeff() / q_ref.cwiseAbs().maxCoeff();
+  const double ev = (v - v_ref).cwiseAbs().maxCoeff() / v_ref.cwiseAbs().maxCoeff();
+  std::printf("Andrews RK4, %d steps: max |q - q_ref| / max |q_ref| = %.2e, same for v: %.2e\n",
+              kSteps, eq, ev);
+  EXPECT_LE(eq, 1e-8) << q.transpose() << "\n" << q_ref.transpose();
+  EXPECT_LE(ev, 1e-8) << v.transpose() << "\n" << v_ref.transpose();
+  Vec phi(and_jr::nc);
+  and_jr::constraints(q.data(), phi.data());
+  EXPECT_LE(phi.lpNorm<Eigen::Infinity>(), 1e-9);  // drift, lengths of 0.03 m
+}
+
 // ---- A01: the pendulum: q'' = -(g/L) cos q ------------------------------------------------
 
 TEST(IftommA01, PendulumEquation) {
@@ -246,6 +294,39 @@ TEST(IftommA01, PendulumEquation) {
       EXPECT_NEAR(qdd, -kG * std::cos(q), 4 * kEps * kG) << "q = " << q;
     }
   }
+}
+
+// A01's exact solution: released horizontal, the pendulum reaches the other horizontal
+// (P1 = (-1, 0), q = -pi) at half its period T = 4 K(sin(pi/4)) sqrt(L/g), K the complete
+// elliptic integral of the first kind, K(k) = pi / (2 AGM(1, sqrt(1 - k^2))).
+TEST(IftommA01, HalfPeriodReachesTheOtherSide) {
+  namespace p = published_a01;
+  double a = 1, b = std::sqrt(0.5);
+  for (int i = 0; i < 8; ++i) {
+    const double m = 0.5 * (a + b);
+    b = std::sqrt(a * b);
+    a = m;
+  }
+  const double period = 4 * (M_PI / (2 * a)) / std::sqrt(kG);
+  constexpr int kSteps = 4000;
+  const double h = 0.5 * period / kSteps;
+  Vec q = Vec::Zero(1), v = Vec::Zero(1);
+  auto qdd_of = [&](const Vec& qq, const Vec& vv) {
+    Vec acc(1);
+    const double tau = 0;
+    EXPECT_EQ(p::forward_dynamics(qq.data(), vv.data(), &tau, acc.data(), nullptr), 0);
+    return acc;
+  };
+  for (int i = 0; i < kSteps; ++i) {
+    rk4_step(qdd_of, h, q, v);
+    if (i + 1 == kSteps / 2) {  // T/4: the bottom, at speed sqrt(2 g L)
+      EXPECT_NEAR(q[0], -M_PI / 2, 1e-9);
+      EXPECT_NEAR(v[0], -std::sqrt(2 * kG), 1e-9);
+    }
+  }
+  // RK4's error at h = 3e-4 s: (h / T)^4 ~ 1e-13 per unit time: 1e-9 is generous.
+  EXPECT_NEAR(q[0], -M_PI, 1e-9);
+  EXPECT_NEAR(v[0], 0, 1e-9);
 }
 
 // ---- A02: the N four-bar ---------------------------------------------------------------
