@@ -433,6 +433,39 @@ TEST(IftommA04, RedundantRowDroppedAndSaid) {
   EXPECT_EQ(Eigen::Map<const Mat>(Phiq, 4, 5).fullPivLu().rank(), 4);
 }
 
+// Gravity through the model's geometry: at rest h = dV/dq, V = g sum m_i y_i (gravity -y),
+// with the centres of mass placed by this test's own forward kinematics of the figure's
+// joints (axes y, z, x, y, z at O, (1,0,0), (1,-1,0), (1,-1,1), (0,-1,1)); central
+// differences with step 1e-6 rad: error ~1e-12 x |V''| ~ 1e-11.
+TEST(IftommA04, GravityIsTheFiguresPotential) {
+  namespace b = published_a04;
+  using V3 = Eigen::Vector3d;
+  const V3 axes[5] = {V3::UnitY(), V3::UnitZ(), V3::UnitX(), V3::UnitY(), V3::UnitZ()};
+  const V3 joints[5] = {V3(0, 0, 0), V3(1, 0, 0), V3(1, -1, 0), V3(1, -1, 1), V3(0, -1, 1)};
+  auto potential = [&](const Vec& q) {
+    Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+    V3 o = V3::Zero();
+    double V = 0;
+    for (int i = 0; i < 5; ++i) {
+      o = o + R * (joints[i] - (i ? joints[i - 1] : V3::Zero()));
+      R = R * Eigen::AngleAxisd(q[i], axes[i]).toRotationMatrix();
+      const V3 com = o + R * (0.5 * ((i < 4 ? joints[i + 1] : V3(0, 0, 1)) - joints[i]));
+      V += kG * com.y();  // 1 kg each
+    }
+    return V;
+  };
+  const Vec q = (Vec(5) << 0.1, -0.2, 0.3, 0.05, -0.15).finished();  // need not be closed
+  const Vec v = Vec::Zero(5);
+  Vec h(5);
+  b::bias_forces(q.data(), v.data(), h.data());
+  for (int i = 0; i < 5; ++i) {
+    Vec qp = q, qm = q;
+    qp[i] += 1e-6;
+    qm[i] -= 1e-6;
+    EXPECT_NEAR(h[i], (potential(qp) - potential(qm)) / 2e-6, 1e-8) << "coordinate " << i;
+  }
+}
+
 // ---- A05: the flyball governor --------------------------------------------------------
 
 TEST(IftommA05, SizesAndStart) {
@@ -446,6 +479,21 @@ TEST(IftommA05, SizesAndStart) {
   ASSERT_EQ(f::forward_dynamics(q, v, tau, qdd, nullptr), 0) << f::last_error();
   EXPECT_NEAR(qdd[0], 0, 1e-12);
   EXPECT_NEAR(qdd[2], qdd[3], 1e-12);  // symmetric
+}
+
+// The springs by hand: the slider lowered to s = 0.45 m, rods at 30 degrees, at rest.
+// Each spring runs from (+-0.05, 0, 0.45) to the rod's midpoint (+-(0.05 + 0.5 cos 30),
+// 0, 1 - 0.5 sin 30): length L = |(0.5 cos 30, 0.3)|, tension K (L - 0.5), and its pull on
+// the slider along +z is K (L - 0.5) 0.3 / L.  So h_s = m_slider g - 2 K (L - 0.5) 0.3 / L.
+TEST(IftommA05, SpringsPullTheSlider) {
+  if (!JR_FORCE_ELEMENTS) GTEST_SKIP() << "generator without <spring> yet";
+  namespace f = published_a05;
+  const double q[4] = {0, 0.45, M_PI / 6, M_PI / 6}, v[4] = {0, 0, 0, 0};
+  double h[4];
+  f::bias_forces(q, v, h);
+  const double dx = 0.5 * std::cos(M_PI / 6), dz = 0.3, L = std::hypot(dx, dz);
+  const double expect = 3.0 * kG - 2 * 8e5 * (L - 0.5) * dz / L;
+  EXPECT_NEAR(h[1], expect, 1e-9 * std::abs(expect)) << h[1];
 }
 
 }  // namespace
