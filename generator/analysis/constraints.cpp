@@ -34,9 +34,13 @@ const char* row_name(ir::CutType type, int row) {
     case ir::CutType::Universal: return row < 3 ? kPoint[row] : "axes perpendicular";
     case ir::CutType::Fixed: return row < 3 ? kPoint[row] : kOrient[row - 3];
     case ir::CutType::Distance: return "distance";
+    case ir::CutType::Mimic: return "mimic";
   }
   return "?";
 }
+
+// The element a cut came from, for messages: a <mimic> row is named after its joint.
+const char* cut_element(const ir::CutJoint& ic) { return ic.type == ir::CutType::Mimic ? "mimic" : "loop_joint"; }
 
 // A portable uniform number in [-1, 1) from a 64-bit generator (the standard
 // distributions differ between libraries; output must not).
@@ -257,6 +261,7 @@ bool length_row(ir::CutType type, int row) {
     case ir::CutType::Fixed: return row < 3;
     case ir::CutType::Prismatic: return row >= 3;
     case ir::CutType::Cylindrical: return row >= 2;
+    case ir::CutType::Mimic: return false;  // in the units of the joints' coordinates
   }
   return true;
 }
@@ -571,7 +576,7 @@ Assembly find_assembly(const ir::Robot& robot, const topology::Tree& tree, Assem
   if (against_definition >= 0) {
     const topology::Cut& cut = tree.cuts[against_definition];
     const ir::CutJoint& ic = robot.cuts[cut.cut_ir];
-    throw Error(ic.where, "loop_joint", ic.name,
+    throw Error(ic.where, cut_element(ic), ic.name,
                 fmt::format("the loop cannot be closed as defined: its rows close only with {} (INTERFACE.md "
                             "section 2); check <origin>, <child_origin> and <axis>, or give a start near an "
                             "assembled configuration with --assemble-from Q.txt (docs/assembly.md)",
@@ -581,7 +586,7 @@ Assembly find_assembly(const ir::Robot& robot, const topology::Tree& tree, Assem
   }
   const CutResiduals at_best = cut_residuals(tree, as, best_q.size() ? best_q : q0);
   const ir::CutJoint& ic = robot.cuts[tree.cuts[at_best.worst].cut_ir];
-  throw Error(ic.where, "loop_joint", ic.name,
+  throw Error(ic.where, cut_element(ic), ic.name,
               fmt::format("the loop cannot be closed: Levenberg-Marquardt from {}the zero configuration and {} "
                           "seeded starts (joint angles up to +-pi) leaves a constraint residual of {:.3g} here at "
                           "best (inconsistent constraints?); check <origin>, <child_origin>, <axis> and "
@@ -653,7 +658,7 @@ void default_distances(const ir::Robot& robot, topology::Tree& tree) {
     cut.distance = (world_origin(cut.body_l, cut.X_BlF) - world_origin(cut.body_k, cut.X_BkF)).norm();
     if (!(cut.distance > kCoincident * L)) {
       const ir::CutJoint& ic = robot.cuts[cut.cut_ir];
-      throw Error(ic.where, "loop_joint", ic.name,
+      throw Error(ic.where, cut_element(ic), ic.name,
                   "the two frames coincide at the zero configuration, so the default distance is 0; "
                   "give <distance value=\"...\"/> (a spherical cut may be what you want)");
     }
@@ -666,8 +671,9 @@ void describe_assembly(const ir::Robot& robot, const topology::Tree& tree, const
                        const std::string& user_file, ConstraintAnalysis& out) {
   const std::vector<std::string> names = coordinate_names(tree);
   const std::string drawn = a.drawn_residual > 0.0
-      ? fmt::format("the loops are open at the zero configuration (largest residual {:.3g}, loop joint '{}')",
-                    a.drawn_residual, tree.cuts[a.drawn_worst].name)
+      ? fmt::format("the loops are open at the zero configuration (largest residual {:.3g}, {} joint '{}')",
+                    a.drawn_residual, tree.cuts[a.drawn_worst].type == ir::CutType::Mimic ? "mimic" : "loop",
+                    tree.cuts[a.drawn_worst].name)
       : "the zero configuration is assembled";
   std::string how = fmt::format("{}; assembled from {} (largest residual {:.1e})", drawn, a.start, a.residual);
   if (!a.user_against.empty())
@@ -750,8 +756,8 @@ ConstraintAnalysis analyze_constraints(const ir::Robot& robot, topology::Tree& t
       const std::string what =
           fmt::format("{} of its {} rows ({}) are redundant at the assembled configurations: {}", dropped.size(),
                       cut.rows, ir::cut_type_name(cut.type), list);
-      if (strict) throw Error(ic.where, "loop_joint", ic.name, what + " (--strict-constraints)");
-      out.notes.push_back(Error(ic.where, "loop_joint", ic.name, what + "; dropped").what());
+      if (strict) throw Error(ic.where, cut_element(ic), ic.name, what + " (--strict-constraints)");
+      out.notes.push_back(Error(ic.where, cut_element(ic), ic.name, what + "; dropped").what());
     }
     cut.kept_rows = kept;
     offset += cut.rows;

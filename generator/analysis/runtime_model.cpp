@@ -52,6 +52,7 @@ jr::CutKind cut_kind(ir::CutType type) {
     case ir::CutType::Universal: return jr::CutKind::kUniversal;
     case ir::CutType::Fixed: return jr::CutKind::kFixed;
     case ir::CutType::Distance: return jr::CutKind::kDistance;
+    case ir::CutType::Mimic: return jr::CutKind::kMimic;
   }
   return jr::CutKind::kSpherical;
 }
@@ -77,6 +78,11 @@ std::vector<jr::CutModel> cut_models(const topology::Tree& tree) {
     copy3(c.axis, cm.axis);
     copy3(c.child_axis, cm.child_axis);
     cm.distance = c.distance;
+    if (c.type == ir::CutType::Mimic) {  // runtime.hpp, CutKind: m in axis[0], o in distance
+      cm.axis[0] = c.multiplier;
+      cm.axis[1] = cm.axis[2] = 0.0;
+      cm.distance = c.offset;
+    }
     for (int r : c.kept_rows) cm.row_mask |= 1 << r;
     cm.first_row = first_row;
     cm.phiq_start = phiq_start;

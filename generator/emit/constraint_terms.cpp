@@ -221,8 +221,27 @@ std::vector<Row> cut_rows(const topology::Cut& cut, const Pose& Fl, const FrameM
       break;
     case ir::CutType::Fixed: points_xyz(); orientation(); break;
     case ir::CutType::Distance: rows.push_back(distance_row(cut.distance, r, k, l)); break;
+    case ir::CutType::Mimic: break;  // not a frame constraint: mimic_row
   }
   return rows;
+}
+
+// A mimic row (runtime.hpp, CutKind::kMimic): Phi = q_l - m q_k - o, the
+// Jacobian 1 and -m at the two joints' dofs (0 at every other dof of the
+// cut's list), gamma = 0; kept rows written as constraint_terms does.
+void mimic_row(Program& P, const topology::Tree& tree, const topology::Cut& cut, bool gamma, ConstraintValues& out,
+               Value* phiq) {
+  const topology::Body& l = tree.bodies[static_cast<std::size_t>(cut.body_l)];
+  const topology::Body& k = tree.bodies[static_cast<std::size_t>(cut.body_k)];
+  for (std::size_t kept = 0; kept < cut.kept_rows.size(); ++kept) {
+    out.phi.push_back(P.input(fmt::format("q[{}]", l.q_user)) - cut.multiplier * P.input(fmt::format("q[{}]", k.q_user)) -
+                      cut.offset);
+    if (gamma) out.gamma.push_back(0.0);
+    for (std::size_t index = 0; index < cut.dofs.size(); ++index) {
+      const int dof = cut.dofs[index];
+      phiq[kept * cut.dofs.size() + index] = dof == l.v_lem ? Value(1.0) : dof == k.v_lem ? Value(-cut.multiplier) : Value(0.0);
+    }
+  }
 }
 
 // The Jacobian entries of the kept rows of one cut at its distinct dofs,
@@ -256,6 +275,11 @@ ConstraintValues constraint_terms(Program& program, const topology::Tree& tree, 
   for (const topology::Cut& cut : tree.cuts) {
     program.comment(fmt::format("cut '{}' ({}): bodies {} and {}, in the coordinates of its frame on k",
                                 comment_text(cut.name), ir::cut_type_name(cut.type), cut.body_k, cut.body_l));
+    if (cut.type == ir::CutType::Mimic) {
+      mimic_row(program, tree, cut, !motion.empty(), out, out.phiq_packed.data() + phiq_start);
+      phiq_start += cut.kept_rows.size() * cut.dofs.size();
+      continue;
+    }
     const CutFrames f = cut_frames(tree, cut, frames);
     const FrameMotion k = frame_motion(cut.body_k, cut.X_BkF.p, mat3(cut.X_BkF.R.transpose()), motion);
     const FrameMotion l = frame_motion(cut.body_l, cut.X_BlF.p, cut.body_l < 0 ? identity3() : f.body.at(cut.body_l).R,

@@ -185,8 +185,10 @@ std::string constraint_tables(const topology::Tree& t, const std::vector<Row>& r
   s += fmt::format("const char* const kRowLabel[{}] = {{\n", m);
   for (int g = 0; g < m; ++g) {
     const topology::Cut& cut = t.cuts[rows[g].cut];
-    s += c_string(fmt::format("loop joint '{}' row {} of {} ({})", cut.name, rows[g].type_row + 1, cut.rows,
-                              ir::cut_type_name(cut.type))) +
+    s += c_string(cut.type == ir::CutType::Mimic
+                      ? fmt::format("mimic joint '{}' (its <mimic> row)", cut.name)
+                      : fmt::format("loop joint '{}' row {} of {} ({})", cut.name, rows[g].type_row + 1, cut.rows,
+                                    ir::cut_type_name(cut.type))) +
          ",\n";
   }
   return s + "};";

@@ -1001,8 +1001,8 @@ ir::Robot read_robot_string(const std::string& xml, const std::string& display_n
     else
       robot.cuts.push_back(read_ball_constraint(doc, e, ++ball_constraints, robot, names));
   }
-  // <mimic> is validated here; its rows join the cuts with the constraint kind (to come).
-  for (std::size_t j = 0; j < robot.joints.size(); ++j) read_mimic(doc, joint_xml_of[j], static_cast<int>(j), robot);
+  for (std::size_t j = 0; j < robot.joints.size(); ++j)
+    if (auto row = read_mimic(doc, joint_xml_of[j], static_cast<int>(j), robot)) robot.cuts.push_back(*row);
   read_force_elements(doc, robot_xml, robot);
   return robot;
 }

@@ -311,14 +311,14 @@ void for_each_kept_row(const ConstraintModel& cm, const double* Phiq_p, F&& f) {
 // The packed layout of a row (runtime.hpp, "Packed constraint Jacobian"):
 // f(index, dof) for the dofs on the paths of k and l to the base in
 // increasing Lemma 2 order, skipping those on both paths (entries exactly 0,
-// never written by jr::constraint_terms).
+// never written by jr::constraint_terms) except for a mimic row (runtime.hpp).
 template <typename F>
 void for_each_row_entry(const Model& model, const CutModel& cut, F&& f) {
   std::int32_t dk = cut.body_k >= 0 ? model.bodies[cut.body_k].v_lem : -1;
   std::int32_t dl = cut.body_l >= 0 ? model.bodies[cut.body_l].v_lem : -1;
   for (std::int32_t index = 0; dk >= 0 || dl >= 0; ++index) {
     const bool on_k = dk >= 0 && (dl < 0 || dk <= dl), on_l = dl >= 0 && (dk < 0 || dl <= dk);
-    if (!(on_k && on_l)) f(index, on_k ? dk : dl);
+    if (!(on_k && on_l) || cut.kind == CutKind::kMimic) f(index, on_k ? dk : dl);  // mimic: every dof
     if (on_k) dk = model.dof_parent[dk];
     if (on_l) dl = model.dof_parent[dl];
   }

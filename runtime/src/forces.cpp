@@ -10,7 +10,6 @@
 #include <cmath>
 
 #include "jrgen/runtime.hpp"
-#include "spatial.hpp"
 
 namespace jr {
 
@@ -20,33 +19,27 @@ using Eigen::Vector3d;
 
 Vector3d vec3(const double* x) { return Vector3d(x[0], x[1], x[2]); }
 
-// Velocity of body i (its own coordinates, [w; v] about its origin), by the
-// forward recursion of the velocities (runtime.cpp, formula (a)) from the base
-// down to i.  O(depth).
-Vector6d body_velocity(const Model& model, const BodyState* bodies, const double* v, std::int32_t i) {
-  if (i < 0) return Vector6d::Zero();
-  const BodyModel& bm = model.bodies[i];
-  Vector6d vel = spatial::motion_to_child(bodies[i], body_velocity(model, bodies, v, bm.parent));
-  for (std::int32_t k = 0; k < bm.nv; ++k) vel += bodies[i].S.col(k) * v[bm.v_user + k];
-  return vel;
-}
-
-// World position and velocity of the point p (body frame) of body i.
+// World position x and velocity xd of the point p (body frame) of body i
+// (needs world_poses()).  The velocity is the sum over the dofs on the path
+// to the base of their world twists (w, v at the body origin o_j) applied at
+// x: v + w x (x - o_j); a loop up the path (no recursion: chains may be long).
 void point_motion(const Model& model, const BodyState* bodies, const double* v, std::int32_t i, const double* p,
                   Vector3d& x, Vector3d& xd) {
   const Vector3d r = vec3(p);
+  xd.setZero();
   if (i < 0) {
     x = r;
-    xd.setZero();
     return;
   }
   x = bodies[i].R_WC * r + bodies[i].p_WC;
-  if (v == nullptr) {
-    xd.setZero();
-    return;
+  if (v == nullptr) return;
+  for (std::int32_t j = i; j >= 0; j = model.bodies[j].parent) {
+    const BodyModel& bm = model.bodies[j];
+    Vector6d twist = Vector6d::Zero();
+    for (std::int32_t k = 0; k < bm.nv; ++k) twist += bodies[j].S.col(k) * v[bm.v_user + k];
+    const Vector3d w = bodies[j].R_WC * twist.head<3>();
+    xd += bodies[j].R_WC * twist.tail<3>() + w.cross(x - bodies[j].p_WC);
   }
-  const Vector6d vel = body_velocity(model, bodies, v, i);
-  xd = bodies[i].R_WC * (vel.tail<3>() + vel.head<3>().cross(r));
 }
 
 // h -= J^T f for the world force f at world point x of body i.

@@ -307,6 +307,7 @@ int cut_kind_rows(CutKind kind) {
     case CutKind::kUniversal: return 4;
     case CutKind::kFixed: return 6;
     case CutKind::kDistance: return 1;
+    case CutKind::kMimic: return 1;
   }
   return 0;
 }
@@ -463,8 +464,23 @@ int cut_rows(const CutModel& cut, const FrameMotion& k, const FrameMotion& l, Cu
       break;
     case CutKind::kFixed: points_xyz(); orientation(); break;
     case CutKind::kDistance: rows[n++] = distance_row(cut.distance, k, l); break;
+    case CutKind::kMimic: break;  // not a frame constraint: mimic_row
   }
   return n;
+}
+
+// The mimic row (runtime.hpp, CutKind): Phi = q_l - m q_k - o, gamma = 0.
+CutRow mimic_row(const Model& model, const CutModel& cut, const double* q) {
+  CutRow row;
+  row.phi = q[model.bodies[cut.body_l].q_user] - cut.axis[0] * q[model.bodies[cut.body_k].q_user] - cut.distance;
+  return row;
+}
+
+// Its Jacobian entry at a dof: 1 at the mimic joint's, -m at the leader's.
+double mimic_entry(const Model& model, const CutModel& cut, std::int32_t dof) {
+  if (dof == model.bodies[cut.body_l].v_lem) return 1.0;
+  if (dof == model.bodies[cut.body_k].v_lem) return -cut.axis[0];
+  return 0.0;
 }
 
 // Walks the dofs on the paths of body_k and body_l to the base in increasing
@@ -520,6 +536,14 @@ void evaluate_cuts(const Model& model, const ConstraintModel& cm, BodyState* bod
   CutRow rows[6];
   for (std::int32_t c = 0; c < cm.ncuts; ++c) {
     const CutModel& cut = cm.cuts[c];
+    if (cut.kind == CutKind::kMimic) {
+      on_row(c, 0, mimic_row(model, cut, q));
+      if (jacobian)
+        for_each_cut_dof(model, cut.body_k, cut.body_l, [&](std::int32_t index, std::int32_t dof, bool, bool) {
+          on_entry(c, 0, index, dof, mimic_entry(model, cut, dof));
+        });
+      continue;
+    }
     const FrameMotion k = frame_motion(cut.body_k, cut.R_k, cut.p_k, motion, v != nullptr);
     const FrameMotion l = frame_motion(cut.body_l, cut.R_l, cut.p_l, motion, v != nullptr);
     const int n = cut_rows(cut, k, l, rows);
@@ -586,7 +610,7 @@ void constraints(const Model& model, const ConstraintModel& cm, BodyState* bodie
     };
     const FrameMotion k = frame(cut.body_k, cut.R_k, cut.p_k), l = frame(cut.body_l, cut.R_l, cut.p_l);
     CutRow rows[6];
-    const int n = cut_rows(cut, k, l, rows);
+    const int n = cut.kind == CutKind::kMimic ? (rows[0] = mimic_row(model, cut, q), 1) : cut_rows(cut, k, l, rows);
     std::int32_t out = cut.first_row;
     for (int r = 0; r < n; ++r)
       if (cut.row_mask >> r & 1) phi[out++] = rows[r].phi;
@@ -627,7 +651,8 @@ void unpack_constraint_jacobian(const Model& model, const ConstraintModel& cm, c
       const std::int32_t row = cut.first_row + kept;
       const double* src = Phiq_p + cut.phiq_start + kept * cut.num_dofs;
       for_each_cut_dof(model, cut.body_k, cut.body_l, [&](std::int32_t index, std::int32_t dof, bool on_k, bool on_l) {
-        if (!(on_k && on_l)) Phiq_user[row + static_cast<std::int64_t>(nc) * model.dof_user[dof]] = src[index];
+        if (!(on_k && on_l) || cut.kind == CutKind::kMimic)  // a mimic row writes every dof
+          Phiq_user[row + static_cast<std::int64_t>(nc) * model.dof_user[dof]] = src[index];
       });
       ++kept;
     }

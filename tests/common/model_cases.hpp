@@ -50,6 +50,8 @@ ir::Robot read_model_case(const ModelCase& c);
 
 /// Gives every link without mass a 10 g, 1e-6 kg m^2 <inertial>.
 std::string give_massless_links_inertia(const std::string& urdf);
+/// The URDF without its joints' <mimic> elements (tree dynamics of the external robots).
+std::string without_mimic(const std::string& urdf);
 
 /// For gtest parameter printing.
 inline void PrintTo(const ModelCase& c, std::ostream* os) { *os << c.name; }

@@ -5,6 +5,8 @@
 // generated from tests/forces/*.urdf (tests/CMakeLists.txt).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <Eigen/Dense>
 #include <Eigen/Geometry>
 #include <cmath>
@@ -15,8 +17,14 @@
 #include "frc_branched.hpp"
 #include "frc_branched_aba.hpp"
 #include "frc_branched_rt.hpp"
+#include "frc_chain.hpp"
+#include "frc_chain_mimic_rt.hpp"
+#include "frc_chain_rt.hpp"
 #include "frc_coincide.hpp"
 #include "frc_coincide_rt.hpp"
+#include "frc_gripper.hpp"
+#include "frc_gripper_rt.hpp"
+#include "frc_gripper_tables.hpp"
 #include "frc_slider.hpp"
 #include "frc_slider_aba.hpp"
 #include "frc_slider_rt.hpp"
@@ -159,6 +167,39 @@ TEST(Forces, BiasForcesAtRestAreTheGradientOfThePotential) {
   }
 }
 
+// The damping forces derive from a Rayleigh dissipation function: the part
+// of h odd in v, D(v) = (h(q, v) - h(q, -v)) / 2 (Coriolis and centrifugal
+// terms are even in v, gravity and springs do not depend on it), is B v with
+// B = diag(joint damping) + sum over springs of c g g^T (g = dL/dq): linear,
+// symmetric (v1 . D(v2) = v2 . D(v1)) and positive semi-definite.  A spring's
+// damping applied with the wrong point velocity or sign breaks symmetry or
+// sign at O(1); the bounds are 1e3 eps of the products' scale (sums of some
+// hundred rounded terms of size |h|).
+TEST(Forces, DampingDerivesFromADissipationFunction) {
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (const Solver& s : kBranched) {
+    SCOPED_TRACE(s.name);
+    for (int trial = 0; trial < 4; ++trial) {
+      const Eigen::VectorXd q = random_q(rng);
+      auto odd = [&](const Eigen::VectorXd& v) {
+        Eigen::VectorXd hp(6), hm(6);
+        const Eigen::VectorXd mv = -v;
+        s.bias_forces(q.data(), v.data(), hp.data());
+        s.bias_forces(q.data(), mv.data(), hm.data());
+        return Eigen::VectorXd((hp - hm) / 2);
+      };
+      Eigen::VectorXd v1(6), v2(6);
+      for (int k = 0; k < 6; ++k) v1[k] = u(rng), v2[k] = u(rng);
+      const Eigen::VectorXd D1 = odd(v1), D2 = odd(v2);
+      const double scale = std::max(1.0, std::max(D1.lpNorm<Eigen::Infinity>(), D2.lpNorm<Eigen::Infinity>()));
+      EXPECT_NEAR(v1.dot(D2), v2.dot(D1), 1e3 * kEps * scale);
+      EXPECT_LE((odd(v1 + v2) - D1 - D2).lpNorm<Eigen::Infinity>(), 1e3 * kEps * scale);
+      EXPECT_GT(v1.dot(D1), 0.0);  // the joint dampers alone make it positive
+    }
+  }
+}
+
 // The specialized programs against the runtime's terms on the same model: the
 // same formulas in another order of operations (and with constants folded), so
 // a few roundings of the terms' scale.  Scale: the largest |h| and |M qdd|
@@ -193,6 +234,29 @@ TEST(Forces, SpecializedRoutesAgreeWithTheRuntimeTerms) {
   }
 }
 
+// tests/forces/chain40_forces.urdf: the runtime's terms take its
+// articulated-body route (jr::articulated_dynamics on tau - the force
+// elements' part of h); against the specialized composite route.  The
+// accelerations through the residual M (qdd - qdd_rt) (M's conditioning
+// does not enter), bound 1e3 eps of the scale: sums over 40 bodies of
+// rounded products; a lost force element is off by O(|force|).
+TEST(Forces, RuntimeArticulatedRouteAgreesOnALongChain) {
+  const Solver s = JR_SOLVER(frc_chain), rt = JR_SOLVER(frc_chain_rt);
+  std::mt19937_64 rng(40);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 3; ++trial) {
+    Eigen::VectorXd q(40), v(40), tau(40), qdd(40), qdd_rt(40), h(40);
+    for (int k = 0; k < 40; ++k) q[k] = u(rng), v[k] = u(rng), tau[k] = 0.1 * u(rng);
+    ASSERT_EQ(s.forward_dynamics(q.data(), v.data(), tau.data(), qdd.data(), nullptr), 0);
+    ASSERT_EQ(rt.forward_dynamics(q.data(), v.data(), tau.data(), qdd_rt.data(), nullptr), 0);
+    Eigen::MatrixXd M(40, 40);
+    s.mass_matrix(q.data(), M.data());
+    s.bias_forces(q.data(), v.data(), h.data());
+    const double scale = std::max(h.lpNorm<Eigen::Infinity>(), tau.lpNorm<Eigen::Infinity>());
+    EXPECT_LE((M * (qdd - qdd_rt)).lpNorm<Eigen::Infinity>(), 1e3 * kEps * scale);
+  }
+}
+
 // A spring without rest_length whose points coincide at the zero
 // configuration: the default rest length would leave the force's direction
 // undefined at rest, which is an error naming the spring and the fix.
@@ -212,6 +276,146 @@ TEST(Forces, CoincidentDefaultRestLengthIsAnError) {
                  "coincide.urdf:5: <spring> 'tie': its two points coincide at the zero configuration, so "
                  "rest_length (by default their distance there) leaves the force's direction undefined at "
                  "rest; give rest_length");
+  }
+}
+
+// ---- Mimic rows (tests/forces/gripper_mimic.urdf) ------------------------------
+//
+// q = (wrist, finger_left, knuckle, finger_right), user order.  Rows:
+// knuckle = -0.5 wrist + 0.1 (its leader an ancestor) and finger_right =
+// -finger_left (siblings).  With these linear rows q = G y + c for the free
+// y = (wrist, finger_left), G constant, so the constrained accelerations are
+// qdd = G a with (G^T M G) a = G^T (tau - h): an independent route through
+// the reduced equations, from the solver's own M and h.
+struct LoopSolver {
+  const char* name;
+  int nc;
+  int (*forward_dynamics)(const double*, const double*, const double*, double*, double*);
+  void (*bias_forces)(const double*, const double*, double*);
+  void (*mass_matrix)(const double*, double*);
+  void (*constraints)(const double*, double*);
+  void (*constraint_jacobian)(const double*, double*);
+  void (*constraint_gamma)(const double*, const double*, double*);
+  int (*solve_augmented)(const double*, const double*, const double*, const double*, double*, double*);
+  const char* (*last_error)();
+};
+#define JR_LOOP_SOLVER(ns)                                                                                  \
+  LoopSolver {                                                                                              \
+    #ns, ns::nc, &ns::forward_dynamics, &ns::bias_forces, &ns::mass_matrix, &ns::constraints,               \
+        &ns::constraint_jacobian, &ns::constraint_gamma, &ns::solve_augmented, &ns::last_error              \
+  }
+const std::vector<LoopSolver> kGrippers = {JR_LOOP_SOLVER(frc_gripper), JR_LOOP_SOLVER(frc_gripper_tables),
+                                           JR_LOOP_SOLVER(frc_gripper_rt)};
+
+Eigen::Matrix<double, 4, 2> gripper_G() {
+  Eigen::Matrix<double, 4, 2> G;
+  G << 1, 0,  //
+      0, 1,   //
+      -0.5, 0,  //
+      0, -1;
+  return G;
+}
+
+// qdd agrees with the reduced route to eps times cond(G^T M G) (below 1e4
+// here) times a few: 1e-10 relative to |qdd|; a free mimic joint (the old
+// behaviour) or a wrong sign breaks qdd_right = -qdd_left at O(1).
+TEST(Mimic, RowsAreCountedAndTheMimicPairsMoveTogether) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const Eigen::Matrix<double, 4, 2> G = gripper_G();
+  for (const LoopSolver& s : kGrippers) {
+    SCOPED_TRACE(s.name);
+    EXPECT_EQ(s.nc, 2);
+    for (int trial = 0; trial < 5; ++trial) {
+      const Eigen::Vector2d y(u(rng), 0.03 * u(rng)), yd(2 * u(rng), 0.1 * u(rng));
+      const Eigen::Vector4d q = G * y + Eigen::Vector4d(0, 0, 0.1, 0), v = G * yd;
+      const Eigen::Vector4d tau(u(rng), u(rng), u(rng), u(rng));
+      Eigen::Vector4d qdd;
+      Eigen::Vector2d lambda, phi, gamma;
+      ASSERT_EQ(s.forward_dynamics(q.data(), v.data(), tau.data(), qdd.data(), lambda.data()), 0);
+      s.constraints(q.data(), phi.data());
+      EXPECT_LE(phi.lpNorm<Eigen::Infinity>(), 4 * kEps);
+      s.constraint_gamma(q.data(), v.data(), gamma.data());
+      EXPECT_EQ(gamma, Eigen::Vector2d::Zero());
+      Eigen::Matrix<double, 2, 4> Phiq;
+      s.constraint_jacobian(q.data(), Phiq.data());
+      Eigen::Matrix<double, 2, 4> expected;
+      expected << 0.5, 0, 1, 0,  // knuckle + 0.5 wrist - 0.1
+          0, 1, 0, 1;            // finger_right + finger_left
+      EXPECT_EQ(Phiq, expected);
+      const double scale = qdd.lpNorm<Eigen::Infinity>();
+      EXPECT_NEAR(qdd[3], -qdd[1], 1e-10 * scale);
+      EXPECT_NEAR(qdd[2], -0.5 * qdd[0], 1e-10 * scale);
+      Eigen::Matrix4d M;
+      Eigen::Vector4d h;
+      s.mass_matrix(q.data(), M.data());
+      s.bias_forces(q.data(), v.data(), h.data());
+      const Eigen::Vector2d a = (G.transpose() * M * G).ldlt().solve(G.transpose() * (tau - h));
+      EXPECT_LE((qdd - G * a).lpNorm<Eigen::Infinity>(), 1e-10 * scale);
+      // The spring between the fingers on the loops' routes: specialized
+      // (one program with Phiq) and runtime h agree to a few roundings.
+      Eigen::Vector4d h_rt;
+      kGrippers.back().bias_forces(q.data(), v.data(), h_rt.data());
+      EXPECT_LE((h - h_rt).lpNorm<Eigen::Infinity>(), 64 * kEps * std::max(1.0, h_rt.lpNorm<Eigen::Infinity>()));
+    }
+  }
+}
+
+// tests/forces/chain80_mimic.urdf on the runtime's articulated-body route for
+// loops (jr::articulated_closed, with tau - h_forces): j79 = 0.5 j0 + 0.2
+// (leader an ancestor) and j40 = -2 j41 (leader a descendant), against the
+// reduced equations as above (G: 80 x 78, constant).  The reduced matrix of
+// 80 light links is ill-conditioned (cond 2e6-3e6 at these states: eps cond
+// = 7e-10), so the bound is 1e-8 relative to |qdd| (measured: 2e-11); a
+// wrong mimic entry is off by O(1).
+TEST(Mimic, RuntimeArticulatedRouteForLoopsOnALongChain) {
+  const int n = 80;
+  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(n, n - 2);
+  std::vector<int> free;
+  for (int k = 0; k < n; ++k)
+    if (k != 79 && k != 40) free.push_back(k);
+  for (int c = 0; c < n - 2; ++c) G(free[c], c) = 1.0;
+  G(79, 0) = 0.5;                             // j79 = 0.5 j0 + 0.2
+  G(40, std::find(free.begin(), free.end(), 41) - free.begin()) = -2.0;  // j40 = -2 j41
+  std::mt19937_64 rng(80);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 3; ++trial) {
+    Eigen::VectorXd y(n - 2), yd(n - 2), tau(n);
+    for (int k = 0; k < n - 2; ++k) y[k] = 0.3 * u(rng), yd[k] = u(rng);
+    for (int k = 0; k < n; ++k) tau[k] = 0.05 * u(rng);
+    Eigen::VectorXd q = G * y, v = G * yd, qdd(n), h(n), lambda(2);
+    q[79] += 0.2;
+    ASSERT_EQ(frc_chain_mimic_rt::forward_dynamics(q.data(), v.data(), tau.data(), qdd.data(), lambda.data()), 0)
+        << frc_chain_mimic_rt::last_error();
+    Eigen::MatrixXd M(n, n);
+    frc_chain_mimic_rt::mass_matrix(q.data(), M.data());
+    frc_chain_mimic_rt::bias_forces(q.data(), v.data(), h.data());
+    const Eigen::VectorXd a = (G.transpose() * M * G).ldlt().solve(G.transpose() * (tau - h));
+    const double scale = qdd.lpNorm<Eigen::Infinity>();
+    EXPECT_NEAR(qdd[79], 0.5 * qdd[0], 1e-12 * scale);
+    EXPECT_NEAR(qdd[40], -2.0 * qdd[41], 1e-12 * scale);
+    EXPECT_LE((qdd - G * a).lpNorm<Eigen::Infinity>(), 1e-8 * scale);
+  }
+}
+
+// Status 2 names the mimic row by its joint: solve_augmented on a Phiq whose
+// two rows are equal (both rows' Lemma 3 dofs include the wrist and the left
+// finger: the knuckle hangs below the left finger).
+TEST(Mimic, DependentRowsNameTheMimicJoint) {
+  for (const LoopSolver& s : kGrippers) {
+    SCOPED_TRACE(s.name);
+    const Eigen::Vector4d q(0.2, 0.01, 0.0, -0.01), v = Eigen::Vector4d::Zero();
+    Eigen::Matrix4d M;
+    s.mass_matrix(q.data(), M.data());
+    Eigen::Matrix<double, 2, 4> Phiq;
+    Phiq << 0.5, 1, 0, 0,  // the wrist and the left finger are on both rows' paths (Lemma 3)
+        0.5, 1, 0, 0;
+    const Eigen::Vector4d Q(1, 2, 3, 4);
+    const Eigen::Vector2d gamma = Eigen::Vector2d::Zero();
+    Eigen::Vector4d qdd;
+    Eigen::Vector2d lambda;
+    EXPECT_EQ(s.solve_augmented(M.data(), Q.data(), Phiq.data(), gamma.data(), qdd.data(), lambda.data()), 2);
+    EXPECT_NE(std::string(s.last_error()).find("mimic joint '"), std::string::npos) << s.last_error();
   }
 }
 

@@ -86,6 +86,7 @@ double closure_error(const ir::Robot& robot, const ir::CutJoint& cut, const Eige
     case ir::CutType::Universal: return std::max(d.norm(), std::abs(a_k.dot(R_l * cut.child_axis)));
     case ir::CutType::Fixed: return std::max(d.norm(), orientation);
     case ir::CutType::Distance: return std::abs(d.norm() - distance / length);
+    case ir::CutType::Mimic: break;  // not a frame constraint
   }
   return INFINITY;
 }

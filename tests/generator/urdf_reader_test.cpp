@@ -136,22 +136,23 @@ struct ModelCounts {
   const char* robot_name;
   int links, revolute, continuous, prismatic, fixed;
   int links_without_inertial;
+  int mimics;  ///< <mimic> elements of joints: one constraint row each (INTERFACE.md 2b)
 };
 
 // Counted independently (Python's xml.etree over the files).
 const ModelCounts kModels[] = {
-    {"allegro_right_hand.urdf", "allegro_hand_right", 21, 16, 0, 0, 4, 0},
-    {"anymal.urdf", "anymal", 78, 12, 0, 0, 65, 1},
-    {"baxter.urdf", "baxter", 57, 15, 0, 4, 37, 1},
-    {"double_pendulum.urdf", "2dof_planar", 3, 2, 0, 0, 0, 0},
-    {"go2.urdf", "go2_description", 31, 12, 0, 0, 18, 0},
-    {"icub.urdf", "iCub", 56, 32, 0, 0, 23, 0},
-    {"panda.urdf", "panda", 13, 7, 0, 2, 3, 0},
-    {"pr2.urdf", "pr2", 82, 25, 4, 1, 51, 14},
-    {"romeo.urdf", "romeo", 82, 55, 0, 0, 26, 0},
-    {"solo12.urdf", "solo", 17, 12, 0, 0, 4, 0},
-    {"talos_full_v2.urdf", "talos", 60, 44, 0, 0, 15, 0},
-    {"ur5_robot.urdf", "ur5", 11, 6, 0, 0, 4, 1},
+    {"allegro_right_hand.urdf", "allegro_hand_right", 21, 16, 0, 0, 4, 0, 0},
+    {"anymal.urdf", "anymal", 78, 12, 0, 0, 65, 1, 0},
+    {"baxter.urdf", "baxter", 57, 15, 0, 4, 37, 1, 2},
+    {"double_pendulum.urdf", "2dof_planar", 3, 2, 0, 0, 0, 0, 0},
+    {"go2.urdf", "go2_description", 31, 12, 0, 0, 18, 0, 0},
+    {"icub.urdf", "iCub", 56, 32, 0, 0, 23, 0, 0},
+    {"panda.urdf", "panda", 13, 7, 0, 2, 3, 0, 1},
+    {"pr2.urdf", "pr2", 82, 25, 4, 1, 51, 14, 10},
+    {"romeo.urdf", "romeo", 82, 55, 0, 0, 26, 0, 22},
+    {"solo12.urdf", "solo", 17, 12, 0, 0, 4, 0, 0},
+    {"talos_full_v2.urdf", "talos", 60, 44, 0, 0, 15, 0, 12},
+    {"ur5_robot.urdf", "ur5", 11, 6, 0, 0, 4, 1, 0},
 };
 
 TEST(UrdfReader, EveryExternalModelIsCovered) {
@@ -199,7 +200,10 @@ TEST(UrdfReader, ExternalModels) {
     for (const ir::Link& l : robot.links)
       if (l.inertial.mass == 0.0 && l.inertial.I_com.isZero(0.0)) ++massless;
     EXPECT_GE(massless, m.links_without_inertial);
-    EXPECT_TRUE(robot.cuts.empty());
+    int mimics = 0;
+    for (const ir::CutJoint& c : robot.cuts) mimics += c.type == ir::CutType::Mimic;
+    EXPECT_EQ(mimics, m.mimics);
+    EXPECT_EQ(static_cast<int>(robot.cuts.size()), m.mimics);
     check_invariants(robot);
   }
 }
@@ -384,7 +388,7 @@ TEST(UrdfReader, PlanarJointKeepsItsNormal) {
   expect_near(j.axis, Eigen::Vector3d::UnitZ());
 }
 
-TEST(UrdfReader, IgnoresMimicTransmissionGazeboVisuals) {
+TEST(UrdfReader, IgnoresTransmissionGazeboVisuals) {
   const char* xml = R"(<robot name="r">
   <material name="blue"><color rgba="0 0 1 1"/></material>
   <link name="p"><visual><geometry><mesh filename="package://x.stl"/></geometry>
@@ -401,7 +405,33 @@ TEST(UrdfReader, IgnoresMimicTransmissionGazeboVisuals) {
 </robot>)";
   const ir::Robot robot = read_robot_string(xml, "ignored.urdf");
   EXPECT_EQ(joint_names(robot), (std::vector<std::string>{"j1", "j2"}));
-  EXPECT_EQ(robot.nv(), 2);  // the mimic joint stays independent
+  // INTERFACE.md section 2b: the mimic joint keeps its coordinate and gets an
+  // exact constraint row q_j2 = -1 q_j1 + 0, a cut named after it.
+  EXPECT_EQ(robot.nv(), 2);
+  ASSERT_EQ(robot.cuts.size(), 1u);
+  const ir::CutJoint& mimic = robot.cuts[0];
+  EXPECT_EQ(mimic.type, ir::CutType::Mimic);
+  EXPECT_EQ(mimic.name, "j2");
+  EXPECT_EQ(robot.joints[mimic.mimic_joint].name, "j2");
+  EXPECT_EQ(robot.joints[mimic.mimic_leader].name, "j1");
+  EXPECT_EQ(mimic.multiplier, -1.0);
+  EXPECT_EQ(mimic.offset, 0.0);
+  EXPECT_EQ(ir::cut_rows(mimic.type), 1);
+  EXPECT_EQ(mimic.where.line, 10);  // the <mimic> element
+}
+
+TEST(UrdfReader, MimicDefaultsAreMultiplierOneOffsetZero) {
+  const char* xml = R"(<robot name="r">
+  <link name="p"/><link name="a"/><link name="b"/>
+  <joint name="lead" type="prismatic"><parent link="p"/><child link="a"/></joint>
+  <joint name="follow" type="continuous"><parent link="a"/><child link="b"/><mimic joint="lead"/></joint>
+</robot>)";
+  const ir::Robot robot = read_robot_string(xml, "mimic.urdf");
+  ASSERT_EQ(robot.cuts.size(), 1u);
+  EXPECT_EQ(robot.cuts[0].multiplier, 1.0);
+  EXPECT_EQ(robot.cuts[0].offset, 0.0);
+  EXPECT_EQ(robot.cuts[0].link_k, robot.find_link("a"));  // the leader's child link
+  EXPECT_EQ(robot.cuts[0].link_l, robot.find_link("b"));
 }
 
 TEST(UrdfReader, BallJoints) {

@@ -183,6 +183,7 @@ CutRows cut_rows(const ir::Robot& robot, const ir::CutJoint& cut, double D, cons
     case ir::CutType::Universal: points_xyz(); put.dot(axis, child_axis); break;
     case ir::CutType::Fixed: points_xyz(); orientation(); break;
     case ir::CutType::Distance: put.distance(D); break;
+    case ir::CutType::Mimic: throw std::logic_error("reference cut_rows: a mimic row is not a frame constraint");
   }
   if (put.n != rows) throw std::logic_error("reference cut_rows: row count");
   return out;
@@ -203,6 +204,7 @@ double definition_residual(const ir::Robot& robot, const ir::CutJoint& cut, doub
     case ir::CutType::Universal: return std::max(coincide, std::abs(a.dot(rel.R * c)));
     case ir::CutType::Fixed: return std::max(coincide, oriented);
     case ir::CutType::Distance: return std::abs(rel.p.norm() - D);
+    case ir::CutType::Mimic: break;  // not a frame constraint (forces_test covers it)
   }
   return 0.0;
 }

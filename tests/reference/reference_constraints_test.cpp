@@ -451,6 +451,7 @@ void placement_on_set(const ir::CutJoint& cut, std::mt19937_64& rng, Eigen::Matr
       p = cut.distance * Vector3d(N(rng), N(rng), N(rng)).normalized();
       break;
     }
+    case ir::CutType::Mimic: break;  // not a frame constraint (forces_test covers it)
   }
 }
 
@@ -526,6 +527,7 @@ TEST_P(CutDefinitions, RowsVanishOnTheDefinedSetAndPhiqAnnihilatesExactlyTheAllo
       case ir::CutType::Cylindrical: relative(axis_W, zero), relative(zero, axis_W); break;
       case ir::CutType::Universal: relative(axis_W, zero), relative(child_axis_W, zero); break;
       case ir::CutType::Fixed: break;
+      case ir::CutType::Mimic: break;  // not a frame constraint
     }
     if (dc.k_on_world) {
       for (int i = 0; i < 6; ++i) allowed.push_back(VectorXd::Unit(12, i));  // a is not in the cut

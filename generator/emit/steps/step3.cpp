@@ -33,6 +33,7 @@ int dof_index(const topology::Cut& cut, int dof) {
 
 std::string row_label(const topology::Tree& t, const Row& row) {
   const topology::Cut& cut = t.cuts[row.cut];
+  if (cut.type == ir::CutType::Mimic) return fmt::format("mimic joint '{}'", comment_text(cut.name));
   return fmt::format("loop joint '{}' row {}", comment_text(cut.name), row.type_row + 1);
 }
 

@@ -199,8 +199,14 @@ double potential_energy(const Model& model, const ForceModel* forces, BodyState*
 //   universal   point x, y, z; dot(axis, child_axis)
 //   fixed       point x, y, z; dot(y_k, z_l), dot(z_k, x_l), dot(x_k, y_l)
 //   distance    distance
+//   mimic       q_l - m q_k - o   (URDF <mimic>, INTERFACE.md section 2b)
 // where u, w complete the axis to a right-handed orthonormal basis in Fk and
-// axis_l is the same axis vector expressed in Fl.
+// axis_l is the same axis vector expressed in Fl.  A mimic row is not a
+// frame constraint: body l carries the mimic joint and body k its leader
+// (both one-dof joints), m is stored in axis[0] and o in distance; its
+// Jacobian holds 1 and -m in their columns and gamma = 0 (Phi is linear in
+// q).  The leader may be an ancestor of the mimic joint, so its entries are
+// written for every dof of the cut's list (zeros elsewhere).
 
 enum class CutKind : std::int32_t {
   kSpherical = 0,
@@ -210,6 +216,7 @@ enum class CutKind : std::int32_t {
   kUniversal = 4,
   kFixed = 5,
   kDistance = 6,
+  kMimic = 7,
 };
 
 /// Number of rows of a cut kind before any is dropped.
