@@ -322,6 +322,10 @@ int run(const Arguments& args) {
   options.threads = args.threads;
   options.divide = args.divide;
   options.singular_proximal = args.singular_proximal;
+  if (!analysis.configurations.empty()) {
+    const Eigen::VectorXd& qa = analysis.configurations.front();
+    options.q_assembled.assign(qa.data(), qa.data() + qa.size());
+  }
   options.source_name = fs::path(args.model).filename().string();
   options.cuts_name = args.cuts.empty() ? "" : fs::path(args.cuts).filename().string();
   options.header_name = hpp_path.filename().string();

@@ -36,6 +36,10 @@ struct Options {
   /// proximal-point iteration instead of returning status 2, and the API
   /// gains last_solve_regularized() (docs/singular.md).  Off: status 2.
   bool singular_proximal = false;
+  /// The assembled configuration (nq, user order) written to q_assembled[]
+  /// (analysis::ConstraintAnalysis::configurations[0]); empty: the zero
+  /// configuration (identity quaternions), as for a tree.
+  std::vector<double> q_assembled;
 };
 
 /// Floating-point operations of emitted code, counted as written.

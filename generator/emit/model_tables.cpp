@@ -89,6 +89,22 @@ std::string body_tables(const topology::Tree& t) {
   return out;
 }
 
+// q_assembled[]: the configuration jrgen assembled the loops at, or the zero
+// configuration (identity quaternions) of a tree; 17 significant digits.
+std::string assembled_values(const topology::Tree& t, const Options& options) {
+  std::vector<double> q = options.q_assembled;
+  if (q.empty()) {
+    q.assign(t.nq, 0.0);
+    for (const topology::Body& b : t.bodies) {
+      if (b.type == ir::JointType::Ball) q[b.q_user] = 1.0;
+      if (b.type == ir::JointType::Floating) q[b.q_user + 3] = 1.0;
+    }
+  }
+  std::string out;
+  for (std::size_t i = 0; i < q.size(); ++i) out += fmt::format("{}{:.17g}", i ? ", " : "", q[i]);
+  return out;
+}
+
 // kForces (INTERFACE.md section 2b: springs, joint springs, joint forces) for
 // the runtime's force_elements() and potential_energy(); nothing for a model
 // without them (forces_ptr: nullptr).
@@ -143,6 +159,7 @@ void model_tables(const topology::Tree& t, const Options& options, TemplateValue
   v["joint_names"] = names;
   v["joint_q_index"] = q_index;
   v["joint_v_index"] = v_index;
+  v["q_assembled"] = assembled_values(t, options);
   v["bodies"] = body_tables(t);
   v["dof_parent"] = join_ints(t.dof_parent);
   v["dof_user"] = join_ints(t.dof_user);

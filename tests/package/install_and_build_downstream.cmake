@@ -118,7 +118,9 @@ foreach(f "${jrgen_exe}"
           "${prefix}/${LIBDIR}/cmake/jrgen/jrgenConfig.cmake"
           "${prefix}/${LIBDIR}/cmake/jrgen/jrgenConfigVersion.cmake"
           "${prefix}/${LIBDIR}/cmake/jrgen/jrgenTargets.cmake"
-          "${prefix}/${LIBDIR}/cmake/jrgen/jrgen_solver.cmake")
+          "${prefix}/${LIBDIR}/cmake/jrgen/jrgen_solver.cmake"
+          "${prefix}/${LIBDIR}/cmake/jrgen/jrgen_simulator_main.cpp.in"
+          "${prefix}/${INCLUDEDIR}/jrgen/simulate.hpp")
   if(NOT EXISTS "${f}")
     message(FATAL_ERROR "install: ${f} is missing")
   endif()
@@ -139,6 +141,14 @@ configure("downstream: configure" "${JRGEN_SOURCE_DIR}/examples/downstream" "${d
           "-DJRGEN_MODELS_DIR=${models}")
 build("downstream: build" "${ds_build}" TRUE)
 run_program("downstream: run" "${ds_build}" app "OK")
+set(sim "${ds_build}/hmmwv_sim")
+if(NOT EXISTS "${sim}" AND CONFIG)
+  set(sim "${ds_build}/${CONFIG}/hmmwv_sim")
+endif()
+run("downstream: simulator (add_jr_simulator)" text COMMAND "${sim}" --t-end 0.01)
+if(NOT text MATCHES "t=0.01 steps=[1-9]")
+  message(FATAL_ERROR "downstream: simulator: '${text}'")
+endif()
 build("downstream: rebuild, nothing changed" "${ds_build}" FALSE)
 touch_later("${models}/hmmwv14.urdf")
 build("downstream: rebuild after touching the URDF" "${ds_build}" TRUE)

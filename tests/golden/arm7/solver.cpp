@@ -44,6 +44,7 @@ const char* const joint_names[njoints] = {
 };
 const int joint_q_index[njoints] = { 0, 1, 2, 3, 4, 5, 6 };
 const int joint_v_index[njoints] = { 0, 1, 2, 3, 4, 5, 6 };
+const double q_assembled[nq] = { 0, 0, 0, 0, 0, 0, 0 };
 
 namespace {
 

@@ -71,6 +71,7 @@ const char* const joint_names[njoints] = {
 };
 const int joint_q_index[njoints] = { 0, 7, 8, 12, 13, 17, 18, 22, 23, 27, 28, 29, 30, 31 };
 const int joint_v_index[njoints] = { 0, 6, 7, 10, 11, 14, 15, 18, 19, 22, 23, 24, 25, 26 };
+const double q_assembled[nq] = { 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0 };
 
 namespace {
 

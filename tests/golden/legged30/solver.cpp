@@ -75,6 +75,7 @@ const char* const joint_names[njoints] = {
 };
 const int joint_q_index[njoints] = { 0, 7, 8, 12, 16, 17, 21, 22, 26, 27, 28, 29, 33, 34, 35 };
 const int joint_v_index[njoints] = { 0, 6, 7, 10, 13, 14, 17, 18, 21, 22, 23, 24, 27, 28, 29 };
+const double q_assembled[nq] = { 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0 };
 
 namespace {
 

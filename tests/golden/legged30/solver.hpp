@@ -17,6 +17,9 @@ inline constexpr int njoints = 15;  // tree joints with nv > 0
 extern const char* const joint_names[];  // (njoints) user order
 extern const int joint_q_index[];        // (njoints) first entry of each joint in q
 extern const int joint_v_index[];        // (njoints) first entry of each joint in v
+// (nq) The configuration jrgen assembled the loops at (Phi = 0; docs/assembly.md),
+// user order; the zero configuration (identity quaternions) for a tree.
+extern const double q_assembled[];
 
 // Result codes (the runtime's jr::Status):
 inline constexpr int kSuccess = 0;

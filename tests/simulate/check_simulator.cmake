@@ -1,0 +1,63 @@
+# The simulator built by add_jr_simulator() for models/fourbar.urdf (nq = nv = 3,
+# nc = 2), run as INTERFACE.md section 7 says.  cmake -DSIM=exe -DWORK=dir -P this.
+file(MAKE_DIRECTORY "${WORK}")
+set(csv "${WORK}/run.csv")
+
+# expect("<if() condition>" "message"): fails the test with the message when
+# the condition (evaluated as written) is false.
+macro(expect cond what)
+  cmake_language(EVAL CODE "if(NOT (${cond}))\n message(FATAL_ERROR [==[${what}]==])\nendif()")
+endmacro()
+
+# 1. A run with rows every 0.1 s: header, 6 rows (t = 0, 0.1, ..., 0.5), last line.
+execute_process(COMMAND "${SIM}" --t-end 0.5 --q0 0.3,0,0 --v0 2,0,0 --output "${csv}" --every 0.1
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+expect("rc EQUAL 0" "exit ${rc}: ${err}")
+expect("err MATCHES \"note: --q0 does not close the loops; assembled\"" "no assembly note on stderr: '${err}'")
+file(STRINGS "${csv}" rows)
+list(GET rows 0 header)
+expect("header STREQUAL \"t,q0,q1,q2,v0,v1,v2,energy,phi_norm,phiqv_norm\"" "header '${header}'")
+list(LENGTH rows n)
+expect("n EQUAL 7" "${n} lines in the CSV, expected the header and 6 rows")
+list(GET rows 1 first)
+list(GET rows 6 last)
+expect("first MATCHES \"^0,\"" "first row '${first}' not at t = 0")
+expect("last MATCHES \"^0.5,\"" "last row '${last}' not at t = 0.5")
+string(REPLACE "," ";" fields "${last}")
+list(LENGTH fields nf)
+expect("nf EQUAL 10" "last row has ${nf} fields: '${last}'")
+list(GET fields 8 phi)
+expect("phi LESS_EQUAL 1e-12" "phi_norm ${phi} at t = 0.5")
+string(STRIP "${out}" out)
+string(REGEX REPLACE ".*\n" "" line "${out}")
+expect("line MATCHES \"^t=0.5 steps=[1-9][0-9]* rejected=[0-9]+ fd_calls=[1-9][0-9]* .*cpu_s=[0-9.]+$\"" "last stdout line '${line}'")
+
+# 2. Every accepted step when --every is not given; rk4 with --dt 0.01: 50 steps, 51 rows.
+execute_process(COMMAND "${SIM}" --t-end 0.5 --v0 2,0,0 --integrator rk4 --dt 0.01 --output "${csv}"
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+expect("rc EQUAL 0" "rk4: exit ${rc}: ${err}")
+expect("err STREQUAL \"\"" "rk4 from the assembled default q0 wrote '${err}' on stderr")
+file(STRINGS "${csv}" rows)
+list(LENGTH rows n)
+expect("n EQUAL 52" "rk4 --dt 0.01: ${n} lines, expected 52")
+expect("out MATCHES \"steps=50 \"" "rk4 --dt 0.01: '${out}'")
+
+# 3. Errors: one line on stderr, non-zero exit.
+foreach(case "--q0;1,2" "--v0;0,nan,0" "--integrator;euler" "--rtol;-1")
+  execute_process(COMMAND "${SIM}" --t-end 1 ${case} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  expect("NOT rc EQUAL 0" "'${case}' exited 0")
+  string(REGEX MATCHALL "\n" newlines "${err}")
+  list(LENGTH newlines lines)
+  expect("lines EQUAL 1" "'${case}': stderr is not one line: '${err}'")
+  expect("err MATCHES \"^fourbar_sim: error: \"" "'${case}': '${err}'")
+endforeach()
+execute_process(COMMAND "${SIM}" --t-end 1 --q0 1,2 ERROR_VARIABLE err)
+expect("err MATCHES \"--q0: 2 values given, the model has nq = 3\"" "bad --q0 message: '${err}'")
+
+# 4. A failure of the generated solver during the run: the time and the joint.
+execute_process(COMMAND "${SIM}" --t-end 1 --v0 1e200,0,0 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+expect("NOT rc EQUAL 0" "--v0 1e200,0,0 exited 0")
+expect("err MATCHES \"^fourbar_sim: error: at t = 0: forward dynamics status 3: .*joint 'joint_A'\"" "overflow: '${err}'")
+string(REGEX MATCHALL "\n" newlines "${err}")
+list(LENGTH newlines lines)
+expect("lines EQUAL 1" "overflow: stderr is not one line: '${err}'")
