@@ -60,8 +60,18 @@ TEST_P(ArticulatedEmit, SolvesTheEquationsOfMotionToWorkingPrecision) {
     for (int j = 0; j < m.tree.nv; ++j) qdd[m.tree.dof_user[j]] = Program::value(result.qdd[j], x);
     const Eigen::VectorXd h = jrgen::reference::bias_forces(m.robot, q, v, kGravity);
     const Eigen::MatrixXd M = jrgen::reference::mass_matrix(m.robot, q);
-    const Eigen::VectorXd r = jrgen::reference::inverse_dynamics(m.robot, q, v, qdd, kGravity) - tau;
-    const double scale = M.norm() * qdd.norm() + tau.norm() + h.norm();
+    // The force elements (INTERFACE.md 2b; the reference knows none): the runtime's
+    // jr::force_elements, Lemma 2 order mapped to user order.
+    Eigen::VectorXd fe = Eigen::VectorXd::Zero(m.tree.nv);
+    if (m.tree.has_force_elements()) {
+      jrgen::analysis::RuntimeModel rm(m.tree, kGravity);
+      Eigen::VectorXd fe_lem = Eigen::VectorXd::Zero(m.tree.nv);
+      jr::kinematics(rm.model(), rm.workspace(), q.data());
+      jr::force_elements(rm.model(), rm.forces(), rm.workspace(), q.data(), v.data(), fe_lem.data());
+      for (int j = 0; j < m.tree.nv; ++j) fe[m.tree.dof_user[j]] = fe_lem[j];
+    }
+    const Eigen::VectorXd r = jrgen::reference::inverse_dynamics(m.robot, q, v, qdd, kGravity) + fe - tau;
+    const double scale = M.norm() * qdd.norm() + tau.norm() + h.norm() + fe.norm();
     EXPECT_LE(r.norm(), 100.0 * m.tree.nv * jrgen::testing::kEps * scale)
         << "trial " << trial << ", |r| = " << r.norm() << ", scale " << scale;
   }

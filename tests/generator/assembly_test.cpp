@@ -209,8 +209,12 @@ INSTANTIATE_TEST_SUITE_P(Singular, AssemblyDrawn,
 
 // ---- AssemblyModels ---------------------------------------------------------------
 
+// Every loop model but Andrews' squeezer (models/andrews_squeezer.urdf), drawn with
+// every angle 0 so that its coordinates are the IVP test set's angles: jrgen closes it
+// (published_test starts it from the published angles).
 TEST(AssemblyModels, AssembledDrawingsKeepTheZeroConfiguration) {
   for (const testing::ModelCase& c : testing::loop_models()) {
+    if (c.name == "loops_andrews_squeezer") continue;
     SCOPED_TRACE(c.name);
     const Assembled a = assemble(testing::read_model_case(c));
     EXPECT_EQ(a.analysis.configurations.front(), reference::neutral_configuration(a.robot));

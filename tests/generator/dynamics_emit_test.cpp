@@ -94,6 +94,14 @@ TEST_P(DynamicsEmit, MatchesTheRuntime) {
     jr::mass_matrix_packed(rm.model(), rm.workspace(), M_ref.data());
     jr::bias_forces(rm.model(), rm.workspace(), v.data(), h_ref.data(), true, damping);
     jr::bias_forces(rm.model(), rm.workspace(), v.data(), h0_ref.data(), false, damping);
+    // The force elements (INTERFACE.md 2b: models/iftomm_a05_flyball.urdf,
+    // andrews_squeezer.urdf) are in the emitted h, and jr::force_elements adds them.
+    if (tree.has_force_elements()) {
+      Eigen::VectorXd fe = Eigen::VectorXd::Zero(tree.nv);
+      jr::force_elements(rm.model(), rm.forces(), rm.workspace(), q.data(), v.data(), fe.data());
+      h_ref += fe;
+      h0_ref += fe;
+    }
     SCOPED_TRACE("trial " + std::to_string(trial));
     EXPECT_LE((values(M, x) - M_ref).norm(), tol * M_ref.norm()) << "|M| = " << M_ref.norm();
     EXPECT_LE((values(h, x) - h_ref).norm(), tol * h_ref.norm()) << "|h| = " << h_ref.norm();

@@ -94,10 +94,12 @@ VectorXd row_data(const VectorXd& phi, const MatrixXd& Phiq, const VectorXd& gam
 }
 
 // The reference's basis (u, w) rotated about the axis by the angle that best
-// matches the solver's u and w rows over all samples (least squares over
-// rotations: a u row is c f(b1) + s f(b2), a w row -s f(b1) + c f(b2), with
-// f(e) the row written with direction e, linear in e).  One angle per cut
-// against every row, Jacobian entry and gamma of every sample: it cannot
+// matches the solver's u and w rows over all samples: a u row is c f(b1) +
+// s f(b2), a w row -s f(b1) + c f(b2), with f(e) the row written with
+// direction e, linear in e; (c, s) by linear least squares over every row,
+// Jacobian entry and gamma of every sample, then theta = atan2(s, c).  Exact
+// when a cut keeps only one row of a pair (the Bricard mechanism's J6), where
+// maximizing the correlation alone is biased.  One angle per cut: it cannot
 // absorb an error that varies with q, nor a left-handed (u, w) (a reflection).
 void fit_basis(const ir::Robot& robot, int c, double D, const std::vector<int>& kept, int first,
                const std::vector<Sample>& samples, Vector3d& u, Vector3d& w) {
@@ -107,7 +109,8 @@ void fit_basis(const ir::Robot& robot, int c, double D, const std::vector<int>& 
   u = b1;
   w = b2;
   const std::vector<int> roles = reference::basis_row_roles(cut.type);
-  double A = 0.0, B = 0.0;
+  Eigen::Matrix2d N = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d rhs = Eigen::Vector2d::Zero();
   for (const Sample& s : samples) {
     const reference::CutRows ref = reference::cut_rows(robot, cut, D, b1, b2, s.q, s.gamma.size() ? s.v : VectorXd());
     for (std::size_t i = 0; i < kept.size(); ++i) {
@@ -117,12 +120,20 @@ void fit_basis(const ir::Robot& robot, int c, double D, const std::vector<int>& 
       const VectorXd y = row_data(s.phi, s.Phiq, s.gamma, first + static_cast<int>(i));
       const VectorXd xu = row_data(ref.phi, ref.Phiq, ref.gamma, ru);
       const VectorXd xw = row_data(ref.phi, ref.Phiq, ref.gamma, ru + 1);
-      A += role > 0 ? y.dot(xu) : y.dot(xw);
-      B += role > 0 ? y.dot(xw) : -y.dot(xu);
+      // y = c p + s r: a u row p = f(b1), r = f(b2); a w row p = f(b2), r = -f(b1).
+      const VectorXd p = role > 0 ? xu : xw;
+      const VectorXd q = role > 0 ? xw : VectorXd(-xu);
+      N(0, 0) += p.dot(p);
+      N(0, 1) += p.dot(q);
+      N(1, 1) += q.dot(q);
+      rhs[0] += y.dot(p);
+      rhs[1] += y.dot(q);
     }
   }
-  if (A == 0.0 && B == 0.0) return;
-  const double theta = std::atan2(B, A);
+  N(1, 0) = N(0, 1);
+  if (rhs.isZero(0.0)) return;
+  const Eigen::Vector2d cs = N.ldlt().solve(rhs);
+  const double theta = std::atan2(cs[1], cs[0]);
   u = std::cos(theta) * b1 + std::sin(theta) * b2;
   w = axis.cross(u);
 }
@@ -230,7 +241,10 @@ TEST_P(ReferenceCuts, JacobianAndGammaMatchFiniteDifferences) {
 // (random_cuts.hpp), the trains' hitches coincide there.  So the reference's
 // rows must vanish at q0: a check that it reads the frames, axes and the
 // default distance as the files mean them.
+// Except Andrews' squeezer (models/andrews_squeezer.urdf), drawn with every angle 0 so
+// that its coordinates are the IVP test set's angles; jrgen assembles it.
 TEST_P(ReferenceCuts, RowsVanishAtTheZeroConfiguration) {
+  if (GetParam().name == "loops_andrews_squeezer") GTEST_SKIP() << "drawn open (see the model's header)";
   const ir::Robot robot = testing::read_model_case(GetParam());
   const VectorXd q0 = reference::neutral_configuration(robot);
   for (const ir::CutJoint& cut : robot.cuts) {
