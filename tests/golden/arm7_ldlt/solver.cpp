@@ -2947,11 +2947,13 @@ int forward_dynamics(const double* q, const double* v, const double* tau, double
   (void)lambda;  // nc == 0: a tree has no constraint forces
   // A NaN or infinity in q goes through sines, cosines and the quaternions'
   // normalization into every term of eq. (17), or into none (a floating
-  // base's position enters neither M nor h): q is tested first (an integer
-  // test per pair of entries).  v and tau enter h and Q linearly, so a
-  // non-finite entry always reaches qdd (status 3 below); they are scanned,
-  // to name the coordinate, only after a failed solve.
-  if (jr::any_non_finite(q, nq)) return non_finite_input(q, v, tau);
+  // base's position enters neither M nor h); v enters only the velocity
+  // products, which a model may not have (a single pendulum's h does not
+  // read its v): both are tested first (an integer test per pair of
+  // entries; INTERFACE.md section 6: a NaN in v is status 3).  tau enters Q
+  // linearly and always reaches qdd (M^-1 has a positive diagonal), so it is
+  // scanned, to name the coordinate, only after a failed solve.
+  if (jr::any_non_finite(q, nq) || jr::any_non_finite(v, nv)) return non_finite_input(q, v, tau);
   // Specialized kinematics, M into g_L (packed) and Q = tau - h into g_z.
   composite_terms(q, v, tau, g_L, g_z);
   const int status = solve_tree(nullptr, qdd);

@@ -1177,11 +1177,13 @@ int forward_dynamics(const double* q, const double* v, const double* tau, double
                      double* lambda) {
   // A NaN or infinity in q goes through sines, cosines and the quaternions'
   // normalization into every term of eq. (17), or into none (a floating
-  // base's position enters neither M nor h): q is tested first (an integer
-  // test per pair of entries).  v and tau enter h, gamma and Q linearly, so a
-  // non-finite entry always reaches qdd or lambda (status 3 below); they are
+  // base's position enters neither M nor h); v enters only the velocity
+  // products, which a model may not have (a single pendulum's h does not
+  // read its v): both are tested first (an integer test per pair of
+  // entries; INTERFACE.md section 6: a NaN in v is status 3).  tau enters Q
+  // linearly and always reaches qdd (M^-1 has a positive diagonal), so it is
   // scanned, to name the coordinate, only after a failed solve.
-  if (jr::any_non_finite(q, nq)) return non_finite_input(q, v, tau);
+  if (jr::any_non_finite(q, nq) || jr::any_non_finite(v, nv)) return non_finite_input(q, v, tau);
   // Specialized terms: M into g_L (packed), Q = tau - h into g_z, Phiq into g_T
   // (packed, Lemma 3 pattern), gamma = -(Phiq v)_q v into g_gamma.
   loop_terms(q, v, tau, g_L, g_z, g_T, g_gamma);
