@@ -261,36 +261,50 @@ bool jacobian(Run& r, double t, const Vec& y, const Vec& f0, Eigen::MatrixXd& J)
   return true;
 }
 
-// Stage i by simplified Newton (HW II, IV.8 (8.13)): Z = h sum_j a_ij k_j + h g f(y + Z).
-// Converged when the estimated remaining error eta |dZ|, eta = theta / (1 - theta)
-// from the contraction theta of the last two increments (HW II, (8.10)-(8.12)),
-// is below kKappa tolerances.  Unlike RADAU5, a first iterate is never taken
+// The convergence test shared by the simplified Newton iterations of sdirk4
+// and radau5 (HW II, (8.10)-(8.12)): with the contraction theta of the last
+// two increments, converged when the estimated remaining error
+// theta / (1 - theta) |dZ| is below kKappa tolerances (or |dZ| is already
+// below 1e-3 kKappa); diverged when theta >= 0.99 or the error predicted
+// after the remaining iterations is above kKappa.
+struct NewtonTest {
+  static constexpr int kMaxIt = 7;
+  static constexpr double kKappa = 0.05;
+  enum Verdict { kContinue, kConverged, kDiverged };
+  double prev = 0.0;
+  double& theta_max;
+
+  Verdict judge(int it, double nrm) {
+    if (nrm <= 1e-3 * kKappa) return kConverged;  // the prediction was already exact
+    if (it > 0) {
+      const double theta = nrm / prev;
+      theta_max = std::max(theta_max, theta);
+      if (theta >= 0.99) return kDiverged;
+      if (std::pow(theta, kMaxIt - 1 - it) / (1 - theta) * nrm > kKappa) return kDiverged;
+      if (theta / (1 - theta) * nrm <= kKappa) return kConverged;
+    }
+    prev = nrm;
+    return kContinue;
+  }
+};
+
+// Stage i by simplified Newton (HW II, IV.8 (8.13)): Z = h sum_j a_ij k_j + h g f(y + Z),
+// until NewtonTest says converged or diverged.  Unlike RADAU5, a first iterate is never taken
 // on the previous stage's eta: with a Jacobian kept over many steps that
 // let errors of 100 x the tolerance through (docs/simulation.md).  Returns
 // false on divergence or predicted slow convergence.
 bool newton_stage(Run& r, Newton& nw, double t, double h, const Vec& y, const Vec& known, Vec& Z, double& theta_max) {
-  static constexpr int kMaxIt = 7;
-  static constexpr double kKappa = 0.05;
   const Eigen::Index n = y.size();
   Vec fz(n), res(n), dZ(n), yz(n);
-  double prev = 0.0;
-  for (int it = 0; it < kMaxIt; ++it) {
+  NewtonTest test{0.0, theta_max};
+  for (int it = 0; it < NewtonTest::kMaxIt; ++it) {
     yz = y + Z;
     if (r.f(t, yz, fz) != 0) return false;
     res = known + h * Sdirk4::g * fz - Z;
     dZ = nw.lu.solve(res);
     Z += dZ;
-    const double nrm = wrms(dZ, y, y, r.s.rtol, r.s.atol);
-    if (nrm <= 1e-3 * kKappa) return Z.allFinite();  // the prediction was already exact
-    if (it > 0) {
-      const double theta = nrm / prev;
-      theta_max = std::max(theta_max, theta);
-      if (theta >= 0.99) return false;
-      // Predicted error after the remaining iterations too large (HW II, (8.11)).
-      if (std::pow(theta, kMaxIt - 1 - it) / (1 - theta) * nrm > kKappa) return false;
-      if (theta / (1 - theta) * nrm <= kKappa) return Z.allFinite();
-    }
-    prev = nrm;
+    const NewtonTest::Verdict verdict = test.judge(it, wrms(dZ, y, y, r.s.rtol, r.s.atol));
+    if (verdict != NewtonTest::kContinue) return verdict == NewtonTest::kConverged && Z.allFinite();
   }
   return false;
 }
@@ -405,12 +419,10 @@ struct RadauNewton {
 
 // The collocation stages Z (3n) by simplified Newton; false on divergence.
 bool radau_newton(Run& r, RadauNewton& nw, double t, double h, const Vec& y, Vec& Z, double& theta_max) {
-  static constexpr int kMaxIt = 7;
-  static constexpr double kKappa = 0.05;
   const Eigen::Index n = y.size();
   Vec F(3 * n), res(3 * n), dZ(3 * n), yz(n), fz(n);
-  double prev = 0.0;
-  for (int it = 0; it < kMaxIt; ++it) {
+  NewtonTest test{0.0, theta_max};
+  for (int it = 0; it < NewtonTest::kMaxIt; ++it) {
     for (int i = 0; i < 3; ++i) {
       yz = y + Z.segment(i * n, n);
       if (r.f(t + Radau5::c[i] * h, yz, fz) != 0) return false;
@@ -423,15 +435,8 @@ bool radau_newton(Run& r, RadauNewton& nw, double t, double h, const Vec& y, Vec
     dZ = nw.lu3.solve(res);
     Z += dZ;
     const double nrm = wrms(dZ, Vec::Zero(3 * n), y.replicate(3, 1), r.s.rtol, r.s.atol);
-    if (nrm <= 1e-3 * kKappa) return Z.allFinite();
-    if (it > 0) {
-      const double theta = nrm / prev;
-      theta_max = std::max(theta_max, theta);
-      if (theta >= 0.99) return false;
-      if (std::pow(theta, kMaxIt - 1 - it) / (1 - theta) * nrm > kKappa) return false;
-      if (theta / (1 - theta) * nrm <= kKappa) return Z.allFinite();
-    }
-    prev = nrm;
+    const NewtonTest::Verdict verdict = test.judge(it, nrm);
+    if (verdict != NewtonTest::kContinue) return verdict == NewtonTest::kConverged && Z.allFinite();
   }
   return false;
 }

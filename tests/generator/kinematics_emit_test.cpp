@@ -82,28 +82,8 @@ TEST_P(KinematicsEmit, MatchesTheRuntime) {
   }
 }
 
-// Folding works: an axis-aligned revolute joint with an identity fixed frame
-// costs one sine, one cosine and nothing else for its rotation.
-TEST(KinematicsEmitFolding, AxisAlignedRevoluteCostsOnlyItsSineAndCosine) {
-  const ModelCase c{"one_joint", R"(<robot name="one">
-  <link name="base"/><link name="a"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
-  <joint name="j" type="revolute"><parent link="base"/><child link="a"/><axis xyz="0 0 1"/>
-    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
-</robot>)", ""};
-  const jrgen::topology::Tree tree = jrgen::topology::build_tree(jrgen::testing::read_model_case(c));
-  Program program("const double* q");
-  program.begin_function("kinematics", "test");
-  program.begin_block("kinematics");
-  const auto frames = jrgen::emit::joint_frames(program, tree);
-  for (int k = 0; k < 9; ++k) program.output("R[" + std::to_string(k) + "]", frames[0].R[k]);
-  for (int k = 0; k < 3; ++k) program.output("p[" + std::to_string(k) + "]", frames[0].p[k]);
-  const auto e = program.emit();
-  EXPECT_EQ(e.total.trig, 2) << e.definitions;
-  EXPECT_EQ(e.total.add + e.total.mul + e.total.div, 0) << e.definitions;
-}
-
 // The kinematics of one revolute joint with the given <axis xyz> and <origin
-// rpy>: its operation count.
+// rpy> (its rotation R and position p as outputs): the emitted program.
 Program::Emitted one_joint_kinematics(const std::string& axis, const std::string& rpy) {
   const ModelCase c{"one_joint", R"(<robot name="one">
   <link name="base"/><link name="a"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
@@ -117,7 +97,16 @@ Program::Emitted one_joint_kinematics(const std::string& axis, const std::string
   program.begin_block("kinematics");
   const auto frames = jrgen::emit::joint_frames(program, tree);
   for (int k = 0; k < 9; ++k) program.output("R[" + std::to_string(k) + "]", frames[0].R[k]);
+  for (int k = 0; k < 3; ++k) program.output("p[" + std::to_string(k) + "]", frames[0].p[k]);
   return program.emit();
+}
+
+// Folding works: an axis-aligned revolute joint with an identity fixed frame
+// costs one sine, one cosine and nothing else for its rotation and position.
+TEST(KinematicsEmitFolding, AxisAlignedRevoluteCostsOnlyItsSineAndCosine) {
+  const auto e = one_joint_kinematics("0 0 1", "0 0 0");
+  EXPECT_EQ(e.total.trig, 2) << e.definitions;
+  EXPECT_EQ(e.total.add + e.total.mul + e.total.div, 0) << e.definitions;
 }
 
 // Exporters' residues below the unit roundoff (iCub's "0 1 6.12323e-17",
