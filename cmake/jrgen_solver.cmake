@@ -127,6 +127,11 @@ function(add_jr_solver)
   # The generated code checks every pivot before std::sqrt and never reads
   # errno: let the compiler emit the bare square-root instruction.
   target_compile_options(${ARG_TARGET} PRIVATE $<$<CXX_COMPILER_ID:GNU,Clang>:-fno-math-errno>)
+  # JRGEN_DISPATCH OFF (a variable of the calling scope): one copy of each
+  # routine instead of the x86-64-v3 and baseline pair (docs/cmake.md).
+  if(DEFINED JRGEN_DISPATCH AND NOT JRGEN_DISPATCH)
+    target_compile_definitions(${ARG_TARGET} PRIVATE JRGEN_NO_DISPATCH)
+  endif()
   set_target_properties(${ARG_TARGET} PROPERTIES POSITION_INDEPENDENT_CODE ON)
   if(parallel)
     find_package(OpenMP QUIET COMPONENTS CXX)

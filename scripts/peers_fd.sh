@@ -5,26 +5,31 @@
 # portable unless --native) and prints the markdown table.
 #
 #   scripts/peers_fd.sh [BUILD_DIR] [--pinocchio SRC] [--cpu N] [--native] [--quick]
-#                       [--models "arm7 panda ..."] [-o OUT_DIR]
+#                       [--no-dispatch] [--models "arm7 panda ..."] [-o OUT_DIR]
 #
 # BUILD_DIR defaults to build-peers, OUT_DIR to BUILD_DIR/peers (one JSON,
 # log and error file per model, and table.md).  --cpu N (default 1): the CPU
 # every program is pinned to with taskset.  --pinocchio SRC: an extracted
 # source tree of stack-of-tasks/pinocchio, compiled header-only into the
 # programs (nothing of it is copied into the repository).  --quick: short
-# timings, for a smoke run.  JOBS=N: parallel compile jobs (default 2).
+# timings, for a smoke run.  --no-dispatch: jrgen's solvers in one copy, the
+# baseline x86-64 code (JRGEN_DISPATCH OFF); by default they are built as
+# add_jr_solver() builds them, with the x86-64-v3 copy the loader picks on
+# processors with AVX2 and FMA (docs/specialization.md).  JOBS=N: parallel
+# compile jobs (default 2).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-build="" out="" cpu=1 native=OFF quick="" pin="" models=""
+build="" out="" cpu=1 native=OFF quick="" pin="" models="" dispatch=ON
 while [ $# -gt 0 ]; do
   case "$1" in
     --pinocchio) pin="$(cd "$2" && pwd)"; shift ;;
     --cpu) cpu="$2"; shift ;;
     --native) native=ON ;;
     --quick) quick="--quick" ;;
+    --no-dispatch) dispatch=OFF ;;
     --models) models="$2"; shift ;;
     -o) out="$2"; shift ;;
-    -h|--help) sed -n '2,16p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,19p' "$0"; exit 0 ;;
     -*) echo "peers_fd.sh: unknown option $1" >&2; exit 2 ;;
     *) build="$1" ;;
   esac
@@ -36,7 +41,7 @@ out="${out:-$build/peers}"
 launcher=()
 command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_FLAGS_RELEASE="-O3 -DNDEBUG" \
-      -DJRGEN_NATIVE="$native" -DJRGEN_BUILD_PEERS=ON -DJRGEN_PINOCCHIO_SOURCE="$pin" "${launcher[@]}" >/dev/null
+      -DJRGEN_NATIVE="$native" -DJRGEN_DISPATCH="$dispatch" -DJRGEN_BUILD_PEERS=ON -DJRGEN_PINOCCHIO_SOURCE="$pin" "${launcher[@]}" >/dev/null
 programs="$build/tests/peers/peers_programs.tsv"
 if [ -n "$models" ]; then
   targets=(); for m in $models; do targets+=("peers_fd_$m"); done

@@ -9,6 +9,7 @@
 #include <string_view>
 
 #include "emit/blocks.hpp"
+#include "emit/dispatch.hpp"
 #include "emit/format.hpp"
 #include "emit/kernel.hpp"
 #include "emit/loops.hpp"
@@ -195,9 +196,10 @@ void separate_steps(const std::vector<StepOps>& ops, TemplateValues& v) {
       "// noclone: GCC would clone each step with the thread-local workspace\n"
       "// propagated into it, and then recompute the arrays' addresses after\n"
       "// fences, saving registers around each; as arguments they are plain pointers.\n"
-      "#if defined(__GNUC__) && !defined(__clang__)\n"
+      "// (target_clones copies a function, so a dispatched step cannot be noclone.)\n"
+      "#if defined(__GNUC__) && !defined(__clang__) && !defined(JRGEN_DISPATCHED)\n"
       "#define JRGEN_STEP __attribute__((noinline, noclone))\n"
-      "#elif defined(__clang__)\n"
+      "#elif defined(__GNUC__) || defined(__clang__)\n"
       "#define JRGEN_STEP __attribute__((noinline))\n"
       "#elif defined(_MSC_VER)\n"
       "#define JRGEN_STEP __declspec(noinline)\n"
@@ -242,7 +244,8 @@ Solver emit_solver(const ir::Robot& robot, const topology::Tree& t, const Option
   solver.ops.insert(solver.ops.end(), loops.ops.begin(), loops.ops.end());
   solver.ops.push_back({"4", steps.ops4});
   separate_steps(solver.ops, v);
-  solver.source = render_template("solver.cpp.tmpl", template_text("solver.cpp.tmpl"), v);
+  v["dispatch"] = dispatch_macro();
+  solver.source = mark_dispatch(render_template("solver.cpp.tmpl", template_text("solver.cpp.tmpl"), v));
   return solver;
 }
 

@@ -27,3 +27,7 @@ add_custom_target(update_goldens
   WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR}
   COMMENT "Regenerating tests/golden from jrgen"
   VERBATIM)
+
+# Processor dispatch: which generated definitions get both copies (emit/dispatch.cpp).
+jrgen_test(dispatch_test generator/dispatch_test.cpp)
+target_link_libraries(dispatch_test PRIVATE jrgen_emit)

@@ -25,6 +25,18 @@
 #if defined(__GNUC__) && !defined(__clang__) && defined(__AVX512F__)
 #pragma GCC target("prefer-vector-width=256")
 #endif
+// Processor dispatch (docs/specialization.md): compiled without -march for
+// x86-64, each routine below marked JRGEN_DISPATCH is compiled twice, for
+// x86-64-v3 (AVX2, FMA) and for the baseline, and the dynamic loader picks
+// the copy this processor runs (GCC target_clones).  The copies differ only
+// in rounding (fused multiply-adds).  -DJRGEN_NO_DISPATCH keeps one copy.
+#if !defined(JRGEN_NO_DISPATCH) && defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && \
+    defined(__linux__) && !defined(__AVX2__)
+#define JRGEN_DISPATCH __attribute__((target_clones("arch=x86-64-v3", "default")))
+#define JRGEN_DISPATCHED 1
+#else
+#define JRGEN_DISPATCH
+#endif
 #include "solver.hpp"
 
 #include <cmath>
@@ -148,7 +160,7 @@ int non_finite(const char* what, const int* first, std::int32_t i, double value)
 // Status 3 for the first NaN or infinity in q, v or tau (user order), or 0.
 // Run before the solve on q only (see forward_dynamics), on v and tau only
 // after a failed solve: no cost on the path of a success.
-int non_finite_input(const double* q, const double* v, const double* tau) {
+JRGEN_DISPATCH int non_finite_input(const double* q, const double* v, const double* tau) {
   for (std::int32_t i = 0; i < nq; ++i)
     if (!std::isfinite(q[i])) return non_finite("q", joint_q_index, i, q[i]);
   for (std::int32_t i = 0; i < nv; ++i)
@@ -180,7 +192,7 @@ int not_positive_definite(std::int32_t dof_lem, double pivot) {
 // After Step 1: M singular to working precision although every pivot passed
 // its own test (kSpreadLimit); names the joint of the smallest pivot and
 // gives d_min / d_max.
-int check_digits_M(const double* Dinv) {
+JRGEN_DISPATCH int check_digits_M(const double* Dinv) {
   double ratio = 0.0;
   const std::int32_t j = jr::pivot_spread(Dinv, nv, true, 2, kSpreadLimit, &ratio);
   if (j < 0) return kSuccess;
@@ -190,7 +202,7 @@ int check_digits_M(const double* Dinv) {
 }
 
 // Q (user order) -> z (Lemma 2 order).
-void gather_Q(const double* __restrict Q, double* __restrict z) {
+JRGEN_DISPATCH void gather_Q(const double* __restrict Q, double* __restrict z) {
   z[0] = Q[6];
   z[1] = Q[5];
   z[2] = Q[4];
@@ -201,7 +213,7 @@ void gather_Q(const double* __restrict Q, double* __restrict z) {
 }
 
 // z (Lemma 2 order) -> qdd (user order).
-void scatter_qdd(const double* __restrict z, double* __restrict qdd) {
+JRGEN_DISPATCH void scatter_qdd(const double* __restrict z, double* __restrict qdd) {
   qdd[6] = z[0];
   qdd[5] = z[1];
   qdd[4] = z[2];
@@ -215,7 +227,7 @@ void scatter_qdd(const double* __restrict z, double* __restrict qdd) {
 // Lemma 2: no fill-in; column j reads only rows of its descendants
 // and writes only rows of its ancestors. Dinv[j] = 1 / pivot j.
 // Ops: 56 add, 84 mul, 7 div, 7 sqrt.
-int step1_factor(double* __restrict L, double* __restrict Dinv) {
+JRGEN_DISPATCH int step1_factor(double* __restrict L, double* __restrict Dinv) {
   // column 0: joint 'joint_7'; 0 descendant(s), 6 ancestor row(s)
   {
     const double d = L[0];
@@ -291,7 +303,7 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
 // the user's dense M (column-major, user order) where the packed variant reads
 // L: only the structurally non-zero entries of eq. (18) are read, and no
 // separate copy of M into L is made.
-int step1_factor_dense(const double* __restrict M, double* __restrict L, double* __restrict Dinv) {
+JRGEN_DISPATCH int step1_factor_dense(const double* __restrict M, double* __restrict L, double* __restrict Dinv) {
   // column 0: joint 'joint_7'; 0 descendant(s), 6 ancestor row(s)
   {
     const double d = M[48];
@@ -366,7 +378,7 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
 // ---- Step 2: solve L z = Q (forward substitution), Remark 2: ----
 // row j sums over the family F(j) only.
 // Ops: 21 add, 28 mul, 0 div.
-void step2_forward(const double* __restrict L, const double* __restrict Dinv, double* __restrict z) {
+JRGEN_DISPATCH void step2_forward(const double* __restrict L, const double* __restrict Dinv, double* __restrict z) {
   // row 0: joint 'joint_7'
   z[0] *= Dinv[0];
   // row 1: joint 'joint_6'
@@ -386,7 +398,7 @@ void step2_forward(const double* __restrict L, const double* __restrict Dinv, do
 // ---- Step 4: solve L^T qdd = z (back substitution), Remark 2: ----
 // row j sums over the ancestors of j only.
 // Ops: 21 add, 28 mul, 0 div.
-void step4_backward(const double* __restrict L, const double* __restrict Dinv, double* __restrict z) {
+JRGEN_DISPATCH void step4_backward(const double* __restrict L, const double* __restrict Dinv, double* __restrict z) {
   // row 6: joint 'joint_1'
   z[6] *= Dinv[6];
   // row 5: joint 'joint_2'
@@ -407,7 +419,7 @@ void step4_backward(const double* __restrict L, const double* __restrict Dinv, d
 // Joint frames, inertias and gravity folded in as constants; M goes straight
 // into the packed layout that Step 1 factors in place.
 // forward_dynamics: specialized kinematics, M (eq. 14, 18) and Q = tau - h
-void composite_terms_part(const double* q, const double* v, const double* tau, double* L, double* z) {
+JRGEN_DISPATCH void composite_terms_part(const double* q, const double* v, const double* tau, double* L, double* z) {
   L[0] = 0.0012799999999999999;
   L[1] = 0.0;
   const double t6 = std::cos(q[5]);
@@ -1625,14 +1637,14 @@ void composite_terms_part(const double* q, const double* v, const double* tau, d
   z[6] = t1548;
 }
 
-void composite_terms(const double* q, const double* v, const double* tau, double* L, double* z) {
+JRGEN_DISPATCH void composite_terms(const double* q, const double* v, const double* tau, double* L, double* z) {
   composite_terms_part(q, v, tau, L, z);
 }
 
 
 // ---- mass_matrix() and bias_forces(): specialized programs ----
 // mass_matrix(): specialized kinematics and M (eq. 14, 18)
-void mass_matrix_part(const double* q, double* M) {
+JRGEN_DISPATCH void mass_matrix_part(const double* q, double* M) {
   const double t22 = std::cos(q[1]);
   const double t14 = std::cos(q[3]);
   const double t6 = std::cos(q[5]);
@@ -2072,12 +2084,12 @@ void mass_matrix_part(const double* q, double* M) {
   // body 6: columns of M of 'joint_1' (eq. 18)
 }
 
-void mass_matrix_terms(const double* q, double* M) {
+JRGEN_DISPATCH void mass_matrix_terms(const double* q, double* M) {
   mass_matrix_part(q, M);
 }
 
 // bias_forces(): specialized kinematics and h (Newton-Euler)
-void bias_forces_part(const double* q, const double* v, double* h) {
+JRGEN_DISPATCH void bias_forces_part(const double* q, const double* v, double* h) {
   // body 0: joint transform X_PC of 'joint_7' (revolute)
   const double t1 = std::sin(q[6]);
   const double t10 = std::cos(q[4]);
@@ -2888,7 +2900,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   h[0] = t1014;
 }
 
-void bias_forces_terms(const double* q, const double* v, double* h) {
+JRGEN_DISPATCH void bias_forces_terms(const double* q, const double* v, double* h) {
   bias_forces_part(q, v, h);
 }
 }  // namespace
@@ -2897,7 +2909,7 @@ namespace {
 
 // Steps 1, 2 and 4 on the packed M in g_L and Q in g_z (a tree: no Step 3);
 // qdd in user order.
-int solve_tree(const double* M, double* qdd) {
+JRGEN_DISPATCH int solve_tree(const double* M, double* qdd) {
   // Step 1 reads M from the packed g_L, or (solve_augmented) from the dense M.
   if (const int status = M != nullptr ? step1_factor_dense(M, g_L, g_Dinv) : step1_factor(g_L, g_Dinv))
     return status;
@@ -2916,7 +2928,7 @@ int solve_tree(const double* M, double* qdd) {
 
 }  // namespace
 
-int forward_dynamics(const double* q, const double* v, const double* tau, double* qdd,
+JRGEN_DISPATCH int forward_dynamics(const double* q, const double* v, const double* tau, double* qdd,
                      double* lambda) {
   (void)lambda;  // nc == 0: a tree has no constraint forces
   // A NaN or infinity in q goes through sines, cosines and the quaternions'
@@ -2936,7 +2948,7 @@ int forward_dynamics(const double* q, const double* v, const double* tau, double
   return input != kSuccess ? input : status;
 }
 
-int solve_augmented(const double* M, const double* Q, const double* Phiq, const double* gamma,
+JRGEN_DISPATCH int solve_augmented(const double* M, const double* Q, const double* Phiq, const double* gamma,
                     double* qdd, double* lambda) {
   (void)Phiq;
   (void)gamma;
@@ -2957,7 +2969,7 @@ int solve_augmented(const double* M, const double* Q, const double* Phiq, const 
 // Opt-in, for per-step timings (tests/report): the inputs gathered as in
 // solve_augmented (Step 1 reads M itself), then the steps up to `last` only (0: none, 1: Step 1,
 // 2: Step 2, 8: Step 4; a tree has no Step 3).
-int solve_augmented_steps(const double* M, const double* Q, const double* Phiq, const double* gamma,
+JRGEN_DISPATCH int solve_augmented_steps(const double* M, const double* Q, const double* Phiq, const double* gamma,
                           int last) {
   (void)Phiq;
   (void)gamma;
@@ -2972,31 +2984,31 @@ int solve_augmented_steps(const double* M, const double* Q, const double* Phiq, 
 }
 #endif
 
-void constraints(const double* q, double* phi) {
+JRGEN_DISPATCH void constraints(const double* q, double* phi) {
   (void)q;
   (void)phi;  // nc == 0
 }
 
-void constraint_jacobian(const double* q, double* Phiq) {
+JRGEN_DISPATCH void constraint_jacobian(const double* q, double* Phiq) {
   (void)q;
   (void)Phiq;  // nc == 0
 }
 
-void constraint_gamma(const double* q, const double* v, double* gamma) {
+JRGEN_DISPATCH void constraint_gamma(const double* q, const double* v, double* gamma) {
   (void)q;
   (void)v;
   (void)gamma;  // nc == 0
 }
 
-void mass_matrix(const double* q, double* M) {
+JRGEN_DISPATCH void mass_matrix(const double* q, double* M) {
   mass_matrix_terms(q, M);  // specialized (dense, user order)
 }
 
-void bias_forces(const double* q, const double* v, double* h) {
+JRGEN_DISPATCH void bias_forces(const double* q, const double* v, double* h) {
   bias_forces_terms(q, v, h);  // specialized (user order)
 }
 
-double potential_energy(const double* q) { return jr::potential_energy(kModel, nullptr, g_bodies, q); }
+JRGEN_DISPATCH double potential_energy(const double* q) { return jr::potential_energy(kModel, nullptr, g_bodies, q); }
 
 const char* last_error() { return g_error; }
 }  // namespace arm7

@@ -21,6 +21,18 @@
 #if defined(__GNUC__) && !defined(__clang__) && defined(__AVX512F__)
 #pragma GCC target("prefer-vector-width=256")
 #endif
+// Processor dispatch (docs/specialization.md): compiled without -march for
+// x86-64, each routine below marked JRGEN_DISPATCH is compiled twice, for
+// x86-64-v3 (AVX2, FMA) and for the baseline, and the dynamic loader picks
+// the copy this processor runs (GCC target_clones).  The copies differ only
+// in rounding (fused multiply-adds).  -DJRGEN_NO_DISPATCH keeps one copy.
+#if !defined(JRGEN_NO_DISPATCH) && defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && \
+    defined(__linux__) && !defined(__AVX2__)
+#define JRGEN_DISPATCH __attribute__((target_clones("arch=x86-64-v3", "default")))
+#define JRGEN_DISPATCHED 1
+#else
+#define JRGEN_DISPATCH
+#endif
 #include "solver.hpp"
 
 #include <cmath>
@@ -147,7 +159,7 @@ int non_finite(const char* what, const int* first, std::int32_t i, double value)
 // Status 3 for the first NaN or infinity in q, v or tau (user order), or 0.
 // Run before the solve on q only (see forward_dynamics), on v and tau only
 // after a failed solve: no cost on the path of a success.
-int non_finite_input(const double* q, const double* v, const double* tau) {
+JRGEN_DISPATCH int non_finite_input(const double* q, const double* v, const double* tau) {
   for (std::int32_t i = 0; i < nq; ++i)
     if (!std::isfinite(q[i])) return non_finite("q", joint_q_index, i, q[i]);
   for (std::int32_t i = 0; i < nv; ++i)
@@ -179,7 +191,7 @@ int not_positive_definite(std::int32_t dof_lem, double pivot) {
 // After Step 1: M singular to working precision although every pivot passed
 // its own test (kSpreadLimit); names the joint of the smallest pivot and
 // gives d_min / d_max.
-int check_digits_M(const double* Dinv) {
+JRGEN_DISPATCH int check_digits_M(const double* Dinv) {
   double ratio = 0.0;
   const std::int32_t j = jr::pivot_spread(Dinv, nv, false, 1, kSpreadLimit, &ratio);
   if (j < 0) return kSuccess;
@@ -189,14 +201,14 @@ int check_digits_M(const double* Dinv) {
 }
 
 // Q (user order) -> z (Lemma 2 order).
-void gather_Q(const double* __restrict Q, double* __restrict z) {
+JRGEN_DISPATCH void gather_Q(const double* __restrict Q, double* __restrict z) {
   z[0] = Q[2];
   z[1] = Q[1];
   z[2] = Q[0];
 }
 
 // z (Lemma 2 order) -> qdd (user order).
-void scatter_qdd(const double* __restrict z, double* __restrict qdd) {
+JRGEN_DISPATCH void scatter_qdd(const double* __restrict z, double* __restrict qdd) {
   qdd[2] = z[0];
   qdd[1] = z[1];
   qdd[0] = z[2];
@@ -204,7 +216,7 @@ void scatter_qdd(const double* __restrict z, double* __restrict qdd) {
 
 // Phiq (dense, user order) -> packed: the structurally non-zero entries only
 // (the dofs of Lemma 3 less the common ancestors, where Phiq is zero).
-void gather_Phiq(const double* __restrict Phiq, double* __restrict T) {
+JRGEN_DISPATCH void gather_Phiq(const double* __restrict Phiq, double* __restrict T) {
   T[0] = Phiq[4];
   T[1] = Phiq[2];
   T[2] = Phiq[0];
@@ -217,7 +229,7 @@ void gather_Phiq(const double* __restrict Phiq, double* __restrict T) {
 // Lemma 2: no fill-in; column j reads only rows of its descendants
 // and writes only rows of its ancestors. Entries are divided by their pivot L[j,j] (--divide).
 // Ops: 4 add, 4 mul, 3 div, 0 sqrt.
-int step1_factor(double* __restrict L, double* __restrict Dinv) {
+JRGEN_DISPATCH int step1_factor(double* __restrict L, double* __restrict Dinv) {
   // column 0: joint 'joint_C'; 0 descendant(s), 2 ancestor row(s)
   {
     const double d = L[0];
@@ -253,7 +265,7 @@ int step1_factor(double* __restrict L, double* __restrict Dinv) {
 // the user's dense M (column-major, user order) where the packed variant reads
 // L: only the structurally non-zero entries of eq. (18) are read, and no
 // separate copy of M into L is made.
-int step1_factor_dense(const double* __restrict M, double* __restrict L, double* __restrict Dinv) {
+JRGEN_DISPATCH int step1_factor_dense(const double* __restrict M, double* __restrict L, double* __restrict Dinv) {
   // column 0: joint 'joint_C'; 0 descendant(s), 2 ancestor row(s)
   {
     const double d = M[8];
@@ -289,7 +301,7 @@ int step1_factor_dense(const double* __restrict M, double* __restrict L, double*
 // ---- Step 2: solve L z = Q (forward substitution), Remark 2: ----
 // row j sums over the family F(j) only. Unit diagonal; D^-1 is applied in Step 4.
 // Ops: 3 add, 3 mul, 0 div.
-void step2_forward(const double* __restrict L, double* __restrict z) {
+JRGEN_DISPATCH void step2_forward(const double* __restrict L, double* __restrict z) {
   // row 1: joint 'joint_B'
   z[1] = z[1] - L[1] * z[0];
   // row 2: joint 'joint_A'
@@ -321,7 +333,7 @@ int fail_row(int status, const char* what, std::int32_t row, double value) {
 // its rows (dofs, descendants first), each row's constraint rows in
 // elimination order, so neighbouring statements touch neighbouring entries. L has a unit diagonal: U = L^-1 Phiq^T.
 // Ops: 6 add, 6 mul, 0 div.
-void step31_solve_T(const double* __restrict L, const double* __restrict P, double* __restrict T) {
+JRGEN_DISPATCH void step31_solve_T(const double* __restrict L, const double* __restrict P, double* __restrict T) {
   (void)T;
   // row 0 of T: joint 'joint_C' (2 constraint rows)
   jr::store2(T + 0, jr::set2(P[0], P[3]));
@@ -333,7 +345,7 @@ void step31_solve_T(const double* __restrict L, const double* __restrict P, doub
 
 // ---- Step 3.2: z_m = U^T D^-1 y - gamma, with V = D^-1 U kept for Step 3.3. ----
 // Ops: 6 add, 6 mul, 6 div.
-void step32_rhs(const double* __restrict T, const double* __restrict L, const double* __restrict z, const double* __restrict gamma, double* __restrict V, double* __restrict zm) {
+JRGEN_DISPATCH void step32_rhs(const double* __restrict T, const double* __restrict L, const double* __restrict z, const double* __restrict gamma, double* __restrict V, double* __restrict zm) {
   // V, row 0: joint 'joint_C'
   V[0] = T[0] / L[0];
   V[1] = T[1] / L[0];
@@ -353,7 +365,7 @@ void step32_rhs(const double* __restrict T, const double* __restrict L, const do
 // Entry (r, s) is computed only when the cuts of rows r and s share a dof;
 // entries that are zero here but filled by Step 3.4 are set to 0.
 // Ops: 6 add, 9 mul, 0 div.
-void step33_TtT(const double* __restrict T, const double* __restrict V, double* __restrict W) {
+JRGEN_DISPATCH void step33_TtT(const double* __restrict T, const double* __restrict V, double* __restrict W) {
   // column 0: loop joint 'joint_D' row 1
   W[0] = V[0] * T[0] + V[2] * T[2] + V[4] * T[4];
   W[1] = V[1] * T[0] + V[3] * T[2] + V[5] * T[4];
@@ -363,7 +375,7 @@ void step33_TtT(const double* __restrict T, const double* __restrict V, double* 
 
 // ---- Step 3.4 (a): factor W = L_W D_W L_W^T in place, unrolled, fill included. ----
 // Ops: 1 add, 1 mul, 1 div, 0 sqrt.
-int step34_factor(double* __restrict W, double* __restrict Winv) {
+JRGEN_DISPATCH int step34_factor(double* __restrict W, double* __restrict Winv) {
   // column 0: loop joint 'joint_D' row 1
   {
     const double d = W[0];
@@ -385,7 +397,7 @@ int step34_factor(double* __restrict W, double* __restrict Winv) {
 
 // ---- Step 3.4 (b): solve W lambda = z_m in place. ----
 // Ops: 2 add, 2 mul, 2 div.
-void step34_solve(const double* __restrict W, const double* __restrict Winv, double* __restrict zm) {
+JRGEN_DISPATCH void step34_solve(const double* __restrict W, const double* __restrict Winv, double* __restrict zm) {
   (void)Winv;
   // forward, row 1
   zm[1] = zm[1] - W[1] * zm[0];
@@ -398,7 +410,7 @@ void step34_solve(const double* __restrict W, const double* __restrict Winv, dou
 // After Step 3.4 (a): T^T T singular to working precision although every pivot
 // passed its own test (kSpreadLimit); names the loop joint and row of the
 // smallest pivot and gives d_min / d_max.
-int check_digits_W(const double* Winv) {
+JRGEN_DISPATCH int check_digits_W(const double* Winv) {
   double ratio = 0.0;
   const std::int32_t j = jr::pivot_spread(Winv, nc, false, 1, kSpreadLimit, &ratio);
   if (j < 0) return kSuccess;
@@ -411,7 +423,7 @@ int check_digits_W(const double* Winv) {
 // ---- Step 3.5: y_n = U lambda, subtracted from z_n in place (Step 4 then ----
 // solves with z_n - y_n). Only rows of dofs some cut reaches.
 // Ops: 6 add, 6 mul, 0 div.
-void step35_update(const double* __restrict T, const double* __restrict zm, double* __restrict z) {
+JRGEN_DISPATCH void step35_update(const double* __restrict T, const double* __restrict zm, double* __restrict z) {
   // row 0: joint 'joint_C'
   z[0] = z[0] - (T[0] * zm[0] + T[1] * zm[1]);
   // row 1: joint 'joint_B'
@@ -423,7 +435,7 @@ void step35_update(const double* __restrict T, const double* __restrict zm, doub
 // ---- Step 4: solve L^T qdd = z (back substitution), Remark 2: ----
 // row j sums over the ancestors of j only.
 // Ops: 3 add, 3 mul, 3 div.
-void step4_backward(const double* __restrict L, const double* __restrict Dinv, double* __restrict z) {
+JRGEN_DISPATCH void step4_backward(const double* __restrict L, const double* __restrict Dinv, double* __restrict z) {
   (void)Dinv;
   // row 2: joint 'joint_A'
   z[2] = z[2] / L[5];
@@ -438,7 +450,7 @@ void step4_backward(const double* __restrict L, const double* __restrict Dinv, d
 // kinematics computed once for all terms; M and Phiq go straight into the
 // packed layouts that Steps 1 and 3 read.
 // forward_dynamics: specialized kinematics, M, Q = tau - h, Phiq, gamma
-void loop_terms_part(const double* q, const double* v, const double* tau, double* L, double* z, double* T, double* gamma) {
+JRGEN_DISPATCH void loop_terms_part(const double* q, const double* v, const double* tau, double* L, double* z, double* T, double* gamma) {
   L[0] = 0.48604500000000006;
   // Joint transforms X_PC and motion subspaces S (constants folded, sin/cos once per joint).
   // body 0: joint transform X_PC of 'joint_C' (revolute)
@@ -698,13 +710,13 @@ void loop_terms_part(const double* q, const double* v, const double* tau, double
   gamma[1] = t375;
 }
 
-void loop_terms(const double* q, const double* v, const double* tau, double* L, double* z, double* T, double* gamma) {
+JRGEN_DISPATCH void loop_terms(const double* q, const double* v, const double* tau, double* L, double* z, double* T, double* gamma) {
   loop_terms_part(q, v, tau, L, z, T, gamma);
 }
 
 // ---- constraints(), constraint_jacobian(), constraint_gamma(): specialized ----
 // constraints(): specialized kinematics and constraint terms
-void constraints_part(const double* q, double* phi) {
+JRGEN_DISPATCH void constraints_part(const double* q, double* phi) {
   // body 0: joint transform X_PC of 'joint_C' (revolute)
   const double t1 = std::sin(q[2]);
   // cut 'joint_D' (revolute): bodies 0 and -1, in the coordinates of its frame on k
@@ -753,12 +765,12 @@ void constraints_part(const double* q, double* phi) {
   phi[1] = t54;
 }
 
-void constraints_terms(const double* q, double* phi) {
+JRGEN_DISPATCH void constraints_terms(const double* q, double* phi) {
   constraints_part(q, phi);
 }
 
 // constraint_jacobian(): specialized kinematics and constraint terms
-void constraint_jacobian_part(const double* q, double* Phiq) {
+JRGEN_DISPATCH void constraint_jacobian_part(const double* q, double* Phiq) {
   const double t2 = std::cos(q[2]);
   const double t15 = t2 * 0.5;
   // body 0: joint transform X_PC of 'joint_C' (revolute)
@@ -820,12 +832,12 @@ void constraint_jacobian_part(const double* q, double* Phiq) {
   Phiq[5] = t55;
 }
 
-void constraint_jacobian_terms(const double* q, double* Phiq) {
+JRGEN_DISPATCH void constraint_jacobian_terms(const double* q, double* Phiq) {
   constraint_jacobian_part(q, Phiq);
 }
 
 // constraint_gamma(): specialized kinematics and constraint terms
-void constraint_gamma_part(const double* q, const double* v, double* gamma) {
+JRGEN_DISPATCH void constraint_gamma_part(const double* q, const double* v, double* gamma) {
   // body 0: joint transform X_PC of 'joint_C' (revolute)
   const double t1 = std::sin(q[2]);
   // cut 'joint_D' (revolute): bodies 0 and -1, in the coordinates of its frame on k
@@ -931,13 +943,13 @@ void constraint_gamma_part(const double* q, const double* v, double* gamma) {
   gamma[1] = t133;
 }
 
-void constraint_gamma_terms(const double* q, const double* v, double* gamma) {
+JRGEN_DISPATCH void constraint_gamma_terms(const double* q, const double* v, double* gamma) {
   constraint_gamma_part(q, v, gamma);
 }
 
 // ---- mass_matrix() and bias_forces(): specialized programs ----
 // mass_matrix(): specialized kinematics and M (eq. 14, 18)
-void mass_matrix_part(const double* q, double* M) {
+JRGEN_DISPATCH void mass_matrix_part(const double* q, double* M) {
   const double t2 = std::cos(q[2]);
   const double t14 = t2 * (-0.81);
   const double t24 = t14 * 0.5;
@@ -1008,12 +1020,12 @@ void mass_matrix_part(const double* q, double* M) {
   // body 2: columns of M of 'joint_A' (eq. 18)
 }
 
-void mass_matrix_terms(const double* q, double* M) {
+JRGEN_DISPATCH void mass_matrix_terms(const double* q, double* M) {
   mass_matrix_part(q, M);
 }
 
 // bias_forces(): specialized kinematics and h (Newton-Euler)
-void bias_forces_part(const double* q, const double* v, double* h) {
+JRGEN_DISPATCH void bias_forces_part(const double* q, const double* v, double* h) {
   // body 0: joint transform X_PC of 'joint_C' (revolute)
   const double t1 = std::sin(q[2]);
   const double t6 = std::cos(q[1]);
@@ -1133,7 +1145,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   h[0] = t162;
 }
 
-void bias_forces_terms(const double* q, const double* v, double* h) {
+JRGEN_DISPATCH void bias_forces_terms(const double* q, const double* v, double* h) {
   bias_forces_part(q, v, h);
 }
 }  // namespace
@@ -1141,7 +1153,7 @@ void bias_forces_terms(const double* q, const double* v, double* h) {
 namespace {
 // The algorithm of Section 4.3 on the packed M in g_L, Q in g_z, the packed
 // Phiq in g_T and gamma in g_gamma; qdd in user order, lambda (may be nullptr).
-int solve_closed(const double* M, double* qdd, double* lambda) {
+JRGEN_DISPATCH int solve_closed(const double* M, double* qdd, double* lambda) {
   // Step 0: y_n = 0 is implicit (Step 3.5 subtracts T lambda from z_n in place).
   // Step 1 reads M from the packed g_L, or (solve_augmented) from the dense M.
   if (const int status = M != nullptr ? step1_factor_dense(M, g_L, g_Dinv) : step1_factor(g_L, g_Dinv))
@@ -1173,7 +1185,7 @@ int solve_closed(const double* M, double* qdd, double* lambda) {
 
 }  // namespace
 
-int forward_dynamics(const double* q, const double* v, const double* tau, double* qdd,
+JRGEN_DISPATCH int forward_dynamics(const double* q, const double* v, const double* tau, double* qdd,
                      double* lambda) {
   // A NaN or infinity in q goes through sines, cosines and the quaternions'
   // normalization into every term of eq. (17), or into none (a floating
@@ -1193,7 +1205,7 @@ int forward_dynamics(const double* q, const double* v, const double* tau, double
   return input != kSuccess ? input : status;
 }
 
-int solve_augmented(const double* M, const double* Q, const double* Phiq, const double* gamma,
+JRGEN_DISPATCH int solve_augmented(const double* M, const double* Q, const double* Phiq, const double* gamma,
                     double* qdd, double* lambda) {
   gather_Q(Q, g_z);
   gather_Phiq(Phiq, g_T);
@@ -1216,7 +1228,7 @@ int solve_augmented(const double* M, const double* Q, const double* Phiq, const 
 // Opt-in, for per-step timings (tests/report, the paper's Table 5): the
 // inputs gathered as in solve_augmented, then the steps up to `last` only
 // (0: none, 1: Step 1, 2: Step 2, 3-7: Steps 3.1-3.5, 8: Step 4).
-int solve_augmented_steps(const double* M, const double* Q, const double* Phiq, const double* gamma,
+JRGEN_DISPATCH int solve_augmented_steps(const double* M, const double* Q, const double* Phiq, const double* gamma,
                           int last) {
   gather_Q(Q, g_z);
   gather_Phiq(Phiq, g_T);
@@ -1242,27 +1254,27 @@ int solve_augmented_steps(const double* M, const double* Q, const double* Phiq, 
 }
 #endif
 
-void constraints(const double* q, double* phi) {
+JRGEN_DISPATCH void constraints(const double* q, double* phi) {
   constraints_terms(q, phi);  // specialized
 }
 
-void constraint_jacobian(const double* q, double* Phiq) {
+JRGEN_DISPATCH void constraint_jacobian(const double* q, double* Phiq) {
   constraint_jacobian_terms(q, Phiq);  // specialized (dense, column-major)
 }
 
-void constraint_gamma(const double* q, const double* v, double* gamma) {
+JRGEN_DISPATCH void constraint_gamma(const double* q, const double* v, double* gamma) {
   constraint_gamma_terms(q, v, gamma);  // specialized
 }
 
-void mass_matrix(const double* q, double* M) {
+JRGEN_DISPATCH void mass_matrix(const double* q, double* M) {
   mass_matrix_terms(q, M);  // specialized (dense, user order)
 }
 
-void bias_forces(const double* q, const double* v, double* h) {
+JRGEN_DISPATCH void bias_forces(const double* q, const double* v, double* h) {
   bias_forces_terms(q, v, h);  // specialized (user order)
 }
 
-double potential_energy(const double* q) { return jr::potential_energy(kModel, nullptr, g_bodies, q); }
+JRGEN_DISPATCH double potential_energy(const double* q) { return jr::potential_energy(kModel, nullptr, g_bodies, q); }
 
 const char* last_error() { return g_error; }
 }  // namespace fourbar

@@ -48,6 +48,18 @@
 #if defined(__GNUC__) && !defined(__clang__) && defined(__AVX512F__)
 #pragma GCC target("prefer-vector-width=256")
 #endif
+// Processor dispatch (docs/specialization.md): compiled without -march for
+// x86-64, each routine below marked JRGEN_DISPATCH is compiled twice, for
+// x86-64-v3 (AVX2, FMA) and for the baseline, and the dynamic loader picks
+// the copy this processor runs (GCC target_clones).  The copies differ only
+// in rounding (fused multiply-adds).  -DJRGEN_NO_DISPATCH keeps one copy.
+#if !defined(JRGEN_NO_DISPATCH) && defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && \
+    defined(__linux__) && !defined(__AVX2__)
+#define JRGEN_DISPATCH __attribute__((target_clones("arch=x86-64-v3", "default")))
+#define JRGEN_DISPATCHED 1
+#else
+#define JRGEN_DISPATCH
+#endif
 #include "solver.hpp"
 
 #include <cmath>
@@ -219,7 +231,7 @@ int non_finite(const char* what, const int* first, std::int32_t i, double value)
 // Status 3 for the first NaN or infinity in q, v or tau (user order), or 0.
 // Run before the solve on q only (see forward_dynamics), on v and tau only
 // after a failed solve: no cost on the path of a success.
-int non_finite_input(const double* q, const double* v, const double* tau) {
+JRGEN_DISPATCH int non_finite_input(const double* q, const double* v, const double* tau) {
   for (std::int32_t i = 0; i < nq; ++i)
     if (!std::isfinite(q[i])) return non_finite("q", joint_q_index, i, q[i]);
   for (std::int32_t i = 0; i < nv; ++i)
@@ -251,7 +263,7 @@ int not_positive_definite(std::int32_t dof_lem, double pivot) {
 // After Step 1: M singular to working precision although every pivot passed
 // its own test (kSpreadLimit); names the joint of the smallest pivot and
 // gives d_min / d_max.
-int check_digits_M(const double* Dinv) {
+JRGEN_DISPATCH int check_digits_M(const double* Dinv) {
   double ratio = 0.0;
   const std::int32_t j = jr::pivot_spread(Dinv, nv, true, 2, kSpreadLimit, &ratio);
   if (j < 0) return kSuccess;
@@ -266,9 +278,10 @@ int check_digits_M(const double* Dinv) {
 // noclone: GCC would clone each step with the thread-local workspace
 // propagated into it, and then recompute the arrays' addresses after
 // fences, saving registers around each; as arguments they are plain pointers.
-#if defined(__GNUC__) && !defined(__clang__)
+// (target_clones copies a function, so a dispatched step cannot be noclone.)
+#if defined(__GNUC__) && !defined(__clang__) && !defined(JRGEN_DISPATCHED)
 #define JRGEN_STEP __attribute__((noinline, noclone))
-#elif defined(__clang__)
+#elif defined(__GNUC__) || defined(__clang__)
 #define JRGEN_STEP __attribute__((noinline))
 #elif defined(_MSC_VER)
 #define JRGEN_STEP __declspec(noinline)
@@ -277,7 +290,7 @@ int check_digits_M(const double* Dinv) {
 #endif
 
 // Q (user order) -> z (Lemma 2 order).
-void gather_Q(const double* __restrict Q, double* __restrict z) {
+JRGEN_DISPATCH void gather_Q(const double* __restrict Q, double* __restrict z) {
   z[0] = Q[7];
   z[1] = Q[8];
   z[2] = Q[9];
@@ -311,7 +324,7 @@ void gather_Q(const double* __restrict Q, double* __restrict z) {
 }
 
 // z (Lemma 2 order) -> qdd (user order).
-void scatter_qdd(const double* __restrict z, double* __restrict qdd) {
+JRGEN_DISPATCH void scatter_qdd(const double* __restrict z, double* __restrict qdd) {
   qdd[7] = z[0];
   qdd[8] = z[1];
   qdd[9] = z[2];
@@ -348,7 +361,7 @@ void scatter_qdd(const double* __restrict z, double* __restrict qdd) {
 // Lemma 2: no fill-in; column j reads only rows of its descendants
 // and writes only rows of its ancestors. Dinv[j] = 1 / pivot j.
 // Ops: 995 add, 1240 mul, 30 div, 30 sqrt.
-JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
+JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
   // column 0: joint 'neck' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
     const double d = L[0];
@@ -809,7 +822,7 @@ JRGEN_STEP int step1_factor(double* __restrict L, double* __restrict Dinv) {
 // the user's dense M (column-major, user order) where the packed variant reads
 // L: only the structurally non-zero entries of eq. (18) are read, and no
 // separate copy of M into L is made.
-JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict L, double* __restrict Dinv) {
+JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict L, double* __restrict Dinv) {
   // column 0: joint 'neck' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
     const double d = M[217];
@@ -1269,7 +1282,7 @@ JRGEN_STEP int step1_factor_dense(const double* __restrict M, double* __restrict
 // ---- Step 2: solve L z = Q (forward substitution), Remark 2: ----
 // row j sums over the family F(j) only.
 // Ops: 215 add, 245 mul, 0 div.
-JRGEN_STEP void step2_forward(const double* __restrict L, const double* __restrict Dinv, double* __restrict z) {
+JRGEN_DISPATCH JRGEN_STEP void step2_forward(const double* __restrict L, const double* __restrict Dinv, double* __restrict z) {
   // row 0: joint 'neck' (coordinate 1 of 3)
   z[0] *= Dinv[0];
   // row 1: joint 'neck' (coordinate 2 of 3)
@@ -1374,7 +1387,7 @@ JRGEN_STEP void step2_forward(const double* __restrict L, const double* __restri
 // ---- Step 4: solve L^T qdd = z (back substitution), Remark 2: ----
 // row j sums over the ancestors of j only.
 // Ops: 215 add, 245 mul, 0 div.
-JRGEN_STEP void step4_backward(const double* __restrict L, const double* __restrict Dinv, double* __restrict z) {
+JRGEN_DISPATCH JRGEN_STEP void step4_backward(const double* __restrict L, const double* __restrict Dinv, double* __restrict z) {
   // row 29: joint 'floating_base' (coordinate 6 of 6)
   z[29] *= Dinv[29];
   // row 28: joint 'floating_base' (coordinate 5 of 6)
@@ -1489,7 +1502,7 @@ JRGEN_STEP void step4_backward(const double* __restrict L, const double* __restr
 thread_local double g_aba_spill[293];  // values passed between the parts below
 
 // forward_dynamics: specialized kinematics and articulated-body algorithm (Featherstone 2008, Table 7.1)
-void articulated_terms_part(const double* q, const double* v, const double* tau, double* qdd, double* D) {
+JRGEN_DISPATCH void articulated_terms_part(const double* q, const double* v, const double* tau, double* qdd, double* D) {
   (void)qdd;
   (void)D;
   // Joint transforms X_PC and motion subspaces S (constants folded, sin/cos once per joint).
@@ -5247,7 +5260,7 @@ void articulated_terms_part(const double* q, const double* v, const double* tau,
 }
 
 // forward_dynamics: specialized kinematics and articulated-body algorithm (Featherstone 2008, Table 7.1) (continued)
-void articulated_terms_part_2(const double* q, const double* v, const double* tau, double* qdd, double* D) {
+JRGEN_DISPATCH void articulated_terms_part_2(const double* q, const double* v, const double* tau, double* qdd, double* D) {
   (void)q;
   const double t4079 = g_aba_spill[0];
   const double t4080 = g_aba_spill[1];
@@ -9109,7 +9122,7 @@ void articulated_terms_part_2(const double* q, const double* v, const double* ta
   D[29] = t6759;
 }
 
-void articulated_terms(const double* q, const double* v, const double* tau, double* qdd, double* D) {
+JRGEN_DISPATCH void articulated_terms(const double* q, const double* v, const double* tau, double* qdd, double* D) {
   articulated_terms_part(q, v, tau, qdd, D);
   articulated_terms_part_2(q, v, tau, qdd, D);
 }
@@ -9117,7 +9130,7 @@ void articulated_terms(const double* q, const double* v, const double* tau, doub
 // Status 1 when a pivot D_j is not positive (M not positive definite) or the
 // pivots' spread d_min / d_max is below kSpreadLimit (M singular to working
 // precision: Step 1's digits test on the same pivots); 3 for a non-finite qdd.
-int check_articulated(const double* D, const double* qdd) {
+JRGEN_DISPATCH int check_articulated(const double* D, const double* qdd) {
   for (std::int32_t j = 0; j < nv; ++j)
     if (!(D[j] > 0.0)) return not_positive_definite(j, D[j]);
   double ratio = 0.0;
@@ -9136,7 +9149,7 @@ int check_articulated(const double* D, const double* qdd) {
 
 // ---- mass_matrix() and bias_forces(): specialized programs ----
 // mass_matrix(): specialized kinematics and M (eq. 14, 18)
-void mass_matrix_part(const double* q, double* M) {
+JRGEN_DISPATCH void mass_matrix_part(const double* q, double* M) {
   // body 14: joint transform X_PC of 'floating_base' (floating)
   const double t220 = q[6] * q[6];
   const double t221 = q[5] * q[5];
@@ -12175,12 +12188,12 @@ void mass_matrix_part(const double* q, double* M) {
   M[899] = 0.0025894166669999997;
 }
 
-void mass_matrix_terms(const double* q, double* M) {
+JRGEN_DISPATCH void mass_matrix_terms(const double* q, double* M) {
   mass_matrix_part(q, M);
 }
 
 // bias_forces(): specialized kinematics and h (Newton-Euler)
-void bias_forces_part(const double* q, const double* v, double* h) {
+JRGEN_DISPATCH void bias_forces_part(const double* q, const double* v, double* h) {
   // body 0: joint transform X_PC of 'neck' (ball)
   const double t4 = q[11] * q[11];
   const double t5 = q[10] * q[10];
@@ -14704,7 +14717,7 @@ void bias_forces_part(const double* q, const double* v, double* h) {
   h[5] = t2855;
 }
 
-void bias_forces_terms(const double* q, const double* v, double* h) {
+JRGEN_DISPATCH void bias_forces_terms(const double* q, const double* v, double* h) {
   bias_forces_part(q, v, h);
 }
 }  // namespace
@@ -14713,7 +14726,7 @@ namespace {
 
 // Steps 1, 2 and 4 on the packed M in g_L and Q in g_z (a tree: no Step 3);
 // qdd in user order.
-int solve_tree(const double* M, double* qdd) {
+JRGEN_DISPATCH int solve_tree(const double* M, double* qdd) {
   // Step 1 reads M from the packed g_L, or (solve_augmented) from the dense M.
   if (const int status = M != nullptr ? step1_factor_dense(M, g_L, g_Dinv) : step1_factor(g_L, g_Dinv))
     return status;
@@ -14732,7 +14745,7 @@ int solve_tree(const double* M, double* qdd) {
 
 }  // namespace
 
-int forward_dynamics(const double* q, const double* v, const double* tau, double* qdd,
+JRGEN_DISPATCH int forward_dynamics(const double* q, const double* v, const double* tau, double* qdd,
                      double* lambda) {
   (void)lambda;  // nc == 0: a tree has no constraint forces
   // A NaN or infinity in q goes through sines, cosines and the quaternions'
@@ -14753,7 +14766,7 @@ int forward_dynamics(const double* q, const double* v, const double* tau, double
   return input != kSuccess ? input : status;
 }
 
-int solve_augmented(const double* M, const double* Q, const double* Phiq, const double* gamma,
+JRGEN_DISPATCH int solve_augmented(const double* M, const double* Q, const double* Phiq, const double* gamma,
                     double* qdd, double* lambda) {
   (void)Phiq;
   (void)gamma;
@@ -14774,7 +14787,7 @@ int solve_augmented(const double* M, const double* Q, const double* Phiq, const 
 // Opt-in, for per-step timings (tests/report): the inputs gathered as in
 // solve_augmented (Step 1 reads M itself), then the steps up to `last` only (0: none, 1: Step 1,
 // 2: Step 2, 8: Step 4; a tree has no Step 3).
-int solve_augmented_steps(const double* M, const double* Q, const double* Phiq, const double* gamma,
+JRGEN_DISPATCH int solve_augmented_steps(const double* M, const double* Q, const double* Phiq, const double* gamma,
                           int last) {
   (void)Phiq;
   (void)gamma;
@@ -14789,31 +14802,31 @@ int solve_augmented_steps(const double* M, const double* Q, const double* Phiq, 
 }
 #endif
 
-void constraints(const double* q, double* phi) {
+JRGEN_DISPATCH void constraints(const double* q, double* phi) {
   (void)q;
   (void)phi;  // nc == 0
 }
 
-void constraint_jacobian(const double* q, double* Phiq) {
+JRGEN_DISPATCH void constraint_jacobian(const double* q, double* Phiq) {
   (void)q;
   (void)Phiq;  // nc == 0
 }
 
-void constraint_gamma(const double* q, const double* v, double* gamma) {
+JRGEN_DISPATCH void constraint_gamma(const double* q, const double* v, double* gamma) {
   (void)q;
   (void)v;
   (void)gamma;  // nc == 0
 }
 
-void mass_matrix(const double* q, double* M) {
+JRGEN_DISPATCH void mass_matrix(const double* q, double* M) {
   mass_matrix_terms(q, M);  // specialized (dense, user order)
 }
 
-void bias_forces(const double* q, const double* v, double* h) {
+JRGEN_DISPATCH void bias_forces(const double* q, const double* v, double* h) {
   bias_forces_terms(q, v, h);  // specialized (user order)
 }
 
-double potential_energy(const double* q) { return jr::potential_energy(kModel, nullptr, g_bodies, q); }
+JRGEN_DISPATCH double potential_energy(const double* q) { return jr::potential_energy(kModel, nullptr, g_bodies, q); }
 
 const char* last_error() { return g_error; }
 }  // namespace legged30
