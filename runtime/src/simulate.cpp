@@ -53,20 +53,29 @@ struct Run {
   double t_now = 0.0;   // time reached
   double h_next = 0.0;  // step to continue with (0: choose one)
 
+  // f at a stage: non-zero (a failure, or kRhsRegularized) rejects the step.
   int f(double t, const Vec& y, Vec& dy) {
     ++st.f_calls;
     std::string err;
     const int status = p.rhs(t, y.data(), dy.data(), err);
-    if (status == 0 && !dy.allFinite()) {
+    if ((status == 0 || status == kRhsRegularized) && !dy.allFinite()) {
       last_rhs_error = "f(t, y) is not finite";
       return 3;
     }
+    if (status == kRhsRegularized) ++st.regularized;
     if (status != 0) last_rhs_error = err;
     return status;
   }
-  // f at an accepted state: a failure there ends the run.
+  // f at an accepted state: a failure there ends the run; a regularized
+  // answer there (the state is on the singular configuration) is used and
+  // counted, the first one described.
   void f_accepted(double t, const Vec& y, Vec& dy) {
-    if (f(t, y, dy) != 0) throw Failure(t, last_rhs_error);
+    const int status = f(t, y, dy);
+    if (status == kRhsRegularized) {
+      if (st.regularized_used++ == 0) st.regularized_note = fmt_time(t) + ": " + last_rhs_error;
+      return;
+    }
+    if (status != 0) throw Failure(t, last_rhs_error);
   }
   void accept(double t, Vec& y) {
     if (p.after_step) p.after_step(t, y.data());
@@ -766,7 +775,39 @@ int Mechanism::rhs(double t, const double* y, double* dydt, std::string& error) 
   if (status != 0)
     error = "forward dynamics status " + std::to_string(status) + ": " + sys_.last_error() + status_hint(status);
   (void)t;
+  if (status == 0 && sys_.last_solve_regularized && sys_.last_solve_regularized()) {
+    error = "forward dynamics regularized (--singular proximal: constraint rows dependent to working precision, "
+            "docs/singular.md) at " + singular_rows(q);
+    return kRhsRegularized;
+  }
   return status;
+}
+
+std::string Mechanism::singular_rows(const double* q) const {
+  // The row of the smallest pivot of a pivoted LDL^T of T^T T = Phiq M^-1 Phiq^T
+  // (the matrix whose digit test failed, docs/singular.md), and the joints it
+  // couples: the loop.  Only on the regularized path.
+  const int nv = sys_.nv, nc = sys_.nc;
+  Eigen::MatrixXd M(nv, nv), Phiq(nc, nv);
+  sys_.mass_matrix(q, M.data());
+  sys_.constraint_jacobian(q, Phiq.data());
+  const Eigen::MatrixXd W = Phiq * M.llt().solve(Phiq.transpose());
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(W);
+  const Eigen::VectorXd d = ldlt.vectorD().cwiseAbs();
+  Eigen::Index k = 0;
+  d.minCoeff(&k);
+  Eigen::VectorXi perm = Eigen::VectorXi::LinSpaced(nc, 0, nc - 1);
+  perm = ldlt.transpositionsP() * perm;  // perm[k]: the row of pivot k
+  const int row = perm[k];
+  std::string joints;
+  for (int j = 0; j < sys_.njoints; ++j) {
+    const int v1 = j + 1 < sys_.njoints ? sys_.joint_v_index[j + 1] : nv;
+    bool in_row = false;
+    for (int c = sys_.joint_v_index[j]; c < v1; ++c) in_row |= Phiq(row, c) != 0.0;
+    if (in_row) joints += std::string(joints.empty() ? "" : ", ") + "'" + sys_.joint_names[j] + "'";
+  }
+  return "constraint row " + std::to_string(row) + " (the loop through joints " + joints + "), pivot " +
+         fmt_g(d[k] / std::max(d.maxCoeff(), 1e-300)) + " of the largest";
 }
 
 void Mechanism::project_positions(double t, double* q) const {
