@@ -253,7 +253,10 @@ struct Newton {
   double h_lu = 0.0;
 };
 
-// Forward-difference Jacobian of f at (t, y), one f call per column.
+// Forward-difference Jacobian of f at (t, y), one f call per column.  A
+// regularized column (kRhsRegularized: y on, or delta into, a singular
+// configuration) is kept: J only steers the Newton iterations, whose stage
+// values decide what enters the result (and reject the step when regularized).
 bool jacobian(Run& r, double t, const Vec& y, const Vec& f0, Eigen::MatrixXd& J) {
   const Eigen::Index n = y.size();
   J.resize(n, n);
@@ -262,7 +265,8 @@ bool jacobian(Run& r, double t, const Vec& y, const Vec& f0, Eigen::MatrixXd& J)
     // delta = sqrt(eps max(1e-5, |y_j|)) (HW II, RADAU5's choice).
     const double delta = std::sqrt(std::numeric_limits<double>::epsilon() * std::max(1e-5, std::abs(y[j])));
     yp[j] = y[j] + delta;
-    if (r.f(t, yp, fp) != 0) return false;
+    const int status = r.f(t, yp, fp);
+    if (status != 0 && status != kRhsRegularized) return false;
     J.col(j) = (fp - f0) / delta;
     yp[j] = y[j];
   }
@@ -297,23 +301,36 @@ struct NewtonTest {
   }
 };
 
+// f in a Newton iteration: false on a failure; a regularized answer is
+// used and flagged (newton_stage, radau_newton).
+bool newton_f(Run& r, double t, const Vec& yz, Vec& fz, bool& regularized) {
+  const int status = r.f(t, yz, fz);
+  regularized |= status == kRhsRegularized;
+  return status == 0 || status == kRhsRegularized;
+}
+
 // Stage i by simplified Newton (HW II, IV.8 (8.13)): Z = h sum_j a_ij k_j + h g f(y + Z),
 // until NewtonTest says converged or diverged.  Unlike RADAU5, a first iterate is never taken
 // on the previous stage's eta: with a Jacobian kept over many steps that
 // let errors of 100 x the tolerance through (docs/simulation.md).  Returns
-// false on divergence or predicted slow convergence.
+// false on divergence or predicted slow convergence.  A regularized f
+// (kRhsRegularized) is taken in the iterations (the first starts at y, which
+// may be on a singular configuration) but not in the last one, whose f
+// determines the converged stage: that rejects the step (newton_f).
 bool newton_stage(Run& r, Newton& nw, double t, double h, const Vec& y, const Vec& known, Vec& Z, double& theta_max) {
   const Eigen::Index n = y.size();
   Vec fz(n), res(n), dZ(n), yz(n);
   NewtonTest test{0.0, theta_max};
   for (int it = 0; it < NewtonTest::kMaxIt; ++it) {
     yz = y + Z;
-    if (r.f(t, yz, fz) != 0) return false;
+    bool regularized = false;
+    if (!newton_f(r, t, yz, fz, regularized)) return false;
     res = known + h * Sdirk4::g * fz - Z;
     dZ = nw.lu.solve(res);
     Z += dZ;
     const NewtonTest::Verdict verdict = test.judge(it, wrms(dZ, y, y, r.s.rtol, r.s.atol));
-    if (verdict != NewtonTest::kContinue) return verdict == NewtonTest::kConverged && Z.allFinite();
+    if (verdict != NewtonTest::kContinue)
+      return verdict == NewtonTest::kConverged && !regularized && Z.allFinite();
   }
   return false;
 }
@@ -432,9 +449,10 @@ bool radau_newton(Run& r, RadauNewton& nw, double t, double h, const Vec& y, Vec
   Vec F(3 * n), res(3 * n), dZ(3 * n), yz(n), fz(n);
   NewtonTest test{0.0, theta_max};
   for (int it = 0; it < NewtonTest::kMaxIt; ++it) {
+    bool regularized = false;  // as in newton_stage
     for (int i = 0; i < 3; ++i) {
       yz = y + Z.segment(i * n, n);
-      if (r.f(t + Radau5::c[i] * h, yz, fz) != 0) return false;
+      if (!newton_f(r, t + Radau5::c[i] * h, yz, fz, regularized)) return false;
       F.segment(i * n, n) = fz;
     }
     for (int i = 0; i < 3; ++i) {
@@ -445,7 +463,8 @@ bool radau_newton(Run& r, RadauNewton& nw, double t, double h, const Vec& y, Vec
     Z += dZ;
     const double nrm = wrms(dZ, Vec::Zero(3 * n), y.replicate(3, 1), r.s.rtol, r.s.atol);
     const NewtonTest::Verdict verdict = test.judge(it, nrm);
-    if (verdict != NewtonTest::kContinue) return verdict == NewtonTest::kConverged && Z.allFinite();
+    if (verdict != NewtonTest::kContinue)
+      return verdict == NewtonTest::kConverged && !regularized && Z.allFinite();
   }
   return false;
 }

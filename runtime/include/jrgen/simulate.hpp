@@ -167,15 +167,6 @@ struct System {
 };
 
 namespace detail {
-// JRGEN_SIM_SYSTEM's detection of ns::last_solve_regularized: with
-// `using namespace ns` and this fallback both visible, the call
-// last_solve_regularized() picks the non-template ns function when it
-// exists (it returns bool), else this template (it returns NoRegularization).
-struct NoRegularization {};
-template <int = 0>
-NoRegularization last_solve_regularized() {
-  return {};
-}
 template <class T>
 struct TypeTag {
   using type = T;
@@ -252,6 +243,22 @@ class Mechanism {
 
 }  // namespace jrgen::sim
 
+// JRGEN_SIM_SYSTEM's detection of ns::last_solve_regularized: with `using
+// namespace ns` and this fallback both visible, the call
+// last_solve_regularized() picks the non-template ns function when it exists
+// (it returns bool), else this template (it returns NoRegularization).  A
+// namespace of its own at global scope: a using-directive makes its names
+// visible in the nearest namespace enclosing both it and the use, the global
+// one, so that lookup from inside any other namespace (jrgen::..., a user's)
+// meets ns's function and this one in the same scope, not this one first.
+namespace jrgen_sim_regularization_fallback {
+struct NoRegularization {};
+template <int = 0>
+NoRegularization last_solve_regularized() {
+  return {};
+}
+}  // namespace jrgen_sim_regularization_fallback
+
 /// A jrgen::sim::System from the generated namespace `ns`.
 #define JRGEN_SIM_SYSTEM(ns)                                                                          \
   ::jrgen::sim::System {                                                                              \
@@ -267,7 +274,7 @@ class Mechanism {
 #define JRGEN_SIM_REGULARIZED_FN(ns)                                                                  \
   [](auto tag) -> bool (*)() {                                                                        \
     using R = typename decltype(tag)::type;                                                           \
-    using namespace ::jrgen::sim::detail;                                                             \
+    using namespace ::jrgen_sim_regularization_fallback;                                               \
     using namespace ns;                                                                               \
     if constexpr (std::is_same<decltype(last_solve_regularized()), R>::value)                         \
       return static_cast<R (*)()>(&last_solve_regularized);                                           \
