@@ -52,6 +52,7 @@ struct Run {
   long k_out = 0;
   double t_now = 0.0;   // time reached
   double h_next = 0.0;  // step to continue with (0: choose one)
+  int last_rhs_status = 0;  // the status of last_rhs_error
 
   // f at a stage: non-zero (a failure, or kRhsRegularized) rejects the step.
   int f(double t, const Vec& y, Vec& dy) {
@@ -63,7 +64,10 @@ struct Run {
       return 3;
     }
     if (status == kRhsRegularized) ++st.regularized;
-    if (status != 0) last_rhs_error = err;
+    if (status != 0) {
+      last_rhs_error = err;
+      last_rhs_status = status;
+    }
     return status;
   }
   // f at an accepted state: a failure there ends the run; a regularized
@@ -103,6 +107,9 @@ struct Run {
     if (h < 16.0 * std::numeric_limits<double>::epsilon() * std::max(std::abs(t), 1e-300) || !(h > 0.0)) {
       std::string why = "step size underflow (h = " + fmt_g(h) + ")";
       if (!last_rhs_error.empty()) why += "; last failure of the dynamics: " + last_rhs_error;
+      if (last_rhs_status == kRhsRegularized)
+        why += "; the steps did not jump the singular configuration: loosen --rtol/--atol (docs/simulation.md, "
+               "\"Failures\")";
       else why += "; the problem may be stiff here: try --integrator radau5";
       throw Failure(t, why);
     }
