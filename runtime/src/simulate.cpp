@@ -106,11 +106,11 @@ struct Run {
   void check_h(double t, double h) {
     if (h < 16.0 * std::numeric_limits<double>::epsilon() * std::max(std::abs(t), 1e-300) || !(h > 0.0)) {
       std::string why = "step size underflow (h = " + fmt_g(h) + ")";
-      if (!last_rhs_error.empty()) why += "; last failure of the dynamics: " + last_rhs_error;
+      if (last_rhs_error.empty()) why += "; the problem may be stiff here: try --integrator radau5";
+      else why += "; last failure of the dynamics: " + last_rhs_error;
       if (last_rhs_status == kRhsRegularized)
         why += "; the steps did not jump the singular configuration: loosen --rtol/--atol (docs/simulation.md, "
                "\"Failures\")";
-      else why += "; the problem may be stiff here: try --integrator radau5";
       throw Failure(t, why);
     }
     if (st.steps + st.rejected >= s.max_steps)
