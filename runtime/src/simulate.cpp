@@ -52,21 +52,34 @@ struct Run {
   long k_out = 0;
   double t_now = 0.0;   // time reached
   double h_next = 0.0;  // step to continue with (0: choose one)
+  int last_rhs_status = 0;  // the status of last_rhs_error
 
+  // f at a stage: non-zero (a failure, or kRhsRegularized) rejects the step.
   int f(double t, const Vec& y, Vec& dy) {
     ++st.f_calls;
     std::string err;
     const int status = p.rhs(t, y.data(), dy.data(), err);
-    if (status == 0 && !dy.allFinite()) {
+    if ((status == 0 || status == kRhsRegularized) && !dy.allFinite()) {
       last_rhs_error = "f(t, y) is not finite";
       return 3;
     }
-    if (status != 0) last_rhs_error = err;
+    if (status == kRhsRegularized) ++st.regularized;
+    if (status != 0) {
+      last_rhs_error = err;
+      last_rhs_status = status;
+    }
     return status;
   }
-  // f at an accepted state: a failure there ends the run.
+  // f at an accepted state: a failure there ends the run; a regularized
+  // answer there (the state is on the singular configuration) is used and
+  // counted, the first one described.
   void f_accepted(double t, const Vec& y, Vec& dy) {
-    if (f(t, y, dy) != 0) throw Failure(t, last_rhs_error);
+    const int status = f(t, y, dy);
+    if (status == kRhsRegularized) {
+      if (st.regularized_used++ == 0) st.regularized_note = fmt_time(t) + ": " + last_rhs_error;
+      return;
+    }
+    if (status != 0) throw Failure(t, last_rhs_error);
   }
   void accept(double t, Vec& y) {
     if (p.after_step) p.after_step(t, y.data());
@@ -93,8 +106,11 @@ struct Run {
   void check_h(double t, double h) {
     if (h < 16.0 * std::numeric_limits<double>::epsilon() * std::max(std::abs(t), 1e-300) || !(h > 0.0)) {
       std::string why = "step size underflow (h = " + fmt_g(h) + ")";
-      if (!last_rhs_error.empty()) why += "; last failure of the dynamics: " + last_rhs_error;
-      else why += "; the problem may be stiff here: try --integrator radau5";
+      if (last_rhs_error.empty()) why += "; the problem may be stiff here: try --integrator radau5";
+      else why += "; last failure of the dynamics: " + last_rhs_error;
+      if (last_rhs_status == kRhsRegularized)
+        why += "; the steps did not jump the singular configuration: loosen --rtol/--atol (docs/simulation.md, "
+               "\"Failures\")";
       throw Failure(t, why);
     }
     if (st.steps + st.rejected >= s.max_steps)
@@ -244,7 +260,10 @@ struct Newton {
   double h_lu = 0.0;
 };
 
-// Forward-difference Jacobian of f at (t, y), one f call per column.
+// Forward-difference Jacobian of f at (t, y), one f call per column.  A
+// regularized column (kRhsRegularized: y on, or delta into, a singular
+// configuration) is kept: J only steers the Newton iterations, whose stage
+// values decide what enters the result (and reject the step when regularized).
 bool jacobian(Run& r, double t, const Vec& y, const Vec& f0, Eigen::MatrixXd& J) {
   const Eigen::Index n = y.size();
   J.resize(n, n);
@@ -253,7 +272,8 @@ bool jacobian(Run& r, double t, const Vec& y, const Vec& f0, Eigen::MatrixXd& J)
     // delta = sqrt(eps max(1e-5, |y_j|)) (HW II, RADAU5's choice).
     const double delta = std::sqrt(std::numeric_limits<double>::epsilon() * std::max(1e-5, std::abs(y[j])));
     yp[j] = y[j] + delta;
-    if (r.f(t, yp, fp) != 0) return false;
+    const int status = r.f(t, yp, fp);
+    if (status != 0 && status != kRhsRegularized) return false;
     J.col(j) = (fp - f0) / delta;
     yp[j] = y[j];
   }
@@ -288,23 +308,36 @@ struct NewtonTest {
   }
 };
 
+// f in a Newton iteration: false on a failure; a regularized answer is
+// used and flagged (newton_stage, radau_newton).
+bool newton_f(Run& r, double t, const Vec& yz, Vec& fz, bool& regularized) {
+  const int status = r.f(t, yz, fz);
+  regularized |= status == kRhsRegularized;
+  return status == 0 || status == kRhsRegularized;
+}
+
 // Stage i by simplified Newton (HW II, IV.8 (8.13)): Z = h sum_j a_ij k_j + h g f(y + Z),
 // until NewtonTest says converged or diverged.  Unlike RADAU5, a first iterate is never taken
 // on the previous stage's eta: with a Jacobian kept over many steps that
 // let errors of 100 x the tolerance through (docs/simulation.md).  Returns
-// false on divergence or predicted slow convergence.
+// false on divergence or predicted slow convergence.  A regularized f
+// (kRhsRegularized) is taken in the iterations (the first starts at y, which
+// may be on a singular configuration) but not in the last one, whose f
+// determines the converged stage: that rejects the step (newton_f).
 bool newton_stage(Run& r, Newton& nw, double t, double h, const Vec& y, const Vec& known, Vec& Z, double& theta_max) {
   const Eigen::Index n = y.size();
   Vec fz(n), res(n), dZ(n), yz(n);
   NewtonTest test{0.0, theta_max};
   for (int it = 0; it < NewtonTest::kMaxIt; ++it) {
     yz = y + Z;
-    if (r.f(t, yz, fz) != 0) return false;
+    bool regularized = false;
+    if (!newton_f(r, t, yz, fz, regularized)) return false;
     res = known + h * Sdirk4::g * fz - Z;
     dZ = nw.lu.solve(res);
     Z += dZ;
     const NewtonTest::Verdict verdict = test.judge(it, wrms(dZ, y, y, r.s.rtol, r.s.atol));
-    if (verdict != NewtonTest::kContinue) return verdict == NewtonTest::kConverged && Z.allFinite();
+    if (verdict != NewtonTest::kContinue)
+      return verdict == NewtonTest::kConverged && !regularized && Z.allFinite();
   }
   return false;
 }
@@ -423,9 +456,10 @@ bool radau_newton(Run& r, RadauNewton& nw, double t, double h, const Vec& y, Vec
   Vec F(3 * n), res(3 * n), dZ(3 * n), yz(n), fz(n);
   NewtonTest test{0.0, theta_max};
   for (int it = 0; it < NewtonTest::kMaxIt; ++it) {
+    bool regularized = false;  // as in newton_stage
     for (int i = 0; i < 3; ++i) {
       yz = y + Z.segment(i * n, n);
-      if (r.f(t + Radau5::c[i] * h, yz, fz) != 0) return false;
+      if (!newton_f(r, t + Radau5::c[i] * h, yz, fz, regularized)) return false;
       F.segment(i * n, n) = fz;
     }
     for (int i = 0; i < 3; ++i) {
@@ -436,7 +470,8 @@ bool radau_newton(Run& r, RadauNewton& nw, double t, double h, const Vec& y, Vec
     Z += dZ;
     const double nrm = wrms(dZ, Vec::Zero(3 * n), y.replicate(3, 1), r.s.rtol, r.s.atol);
     const NewtonTest::Verdict verdict = test.judge(it, nrm);
-    if (verdict != NewtonTest::kContinue) return verdict == NewtonTest::kConverged && Z.allFinite();
+    if (verdict != NewtonTest::kContinue)
+      return verdict == NewtonTest::kConverged && !regularized && Z.allFinite();
   }
   return false;
 }
@@ -766,7 +801,39 @@ int Mechanism::rhs(double t, const double* y, double* dydt, std::string& error) 
   if (status != 0)
     error = "forward dynamics status " + std::to_string(status) + ": " + sys_.last_error() + status_hint(status);
   (void)t;
+  if (status == 0 && sys_.last_solve_regularized && sys_.last_solve_regularized()) {
+    error = "forward dynamics regularized (--singular proximal: constraint rows dependent to working precision, "
+            "docs/singular.md) at " + singular_rows(q);
+    return kRhsRegularized;
+  }
   return status;
+}
+
+std::string Mechanism::singular_rows(const double* q) const {
+  // The row of the smallest pivot of a pivoted LDL^T of T^T T = Phiq M^-1 Phiq^T
+  // (the matrix whose digit test failed, docs/singular.md), and the joints it
+  // couples: the loop.  Only on the regularized path.
+  const int nv = sys_.nv, nc = sys_.nc;
+  Eigen::MatrixXd M(nv, nv), Phiq(nc, nv);
+  sys_.mass_matrix(q, M.data());
+  sys_.constraint_jacobian(q, Phiq.data());
+  const Eigen::MatrixXd W = Phiq * M.llt().solve(Phiq.transpose());
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(W);
+  const Eigen::VectorXd d = ldlt.vectorD().cwiseAbs();
+  Eigen::Index k = 0;
+  d.minCoeff(&k);
+  Eigen::VectorXi perm = Eigen::VectorXi::LinSpaced(nc, 0, nc - 1);
+  perm = ldlt.transpositionsP() * perm;  // perm[k]: the row of pivot k
+  const int row = perm[k];
+  std::string joints;
+  for (int j = 0; j < sys_.njoints; ++j) {
+    const int v1 = j + 1 < sys_.njoints ? sys_.joint_v_index[j + 1] : nv;
+    bool in_row = false;
+    for (int c = sys_.joint_v_index[j]; c < v1; ++c) in_row |= Phiq(row, c) != 0.0;
+    if (in_row) joints += std::string(joints.empty() ? "" : ", ") + "'" + sys_.joint_names[j] + "'";
+  }
+  return "constraint row " + std::to_string(row) + " (the loop through joints " + joints + "), pivot " +
+         fmt_g(d[k] / std::max(d.maxCoeff(), 1e-300)) + " of the largest";
 }
 
 void Mechanism::project_positions(double t, double* q) const {

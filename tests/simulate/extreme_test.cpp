@@ -149,6 +149,21 @@ TEST(ExtremeTime, ParallelogramThroughItsChangePoints) {
   EXPECT_NEAR(parallelogram_theta(0.3, 1.0, s.t_fail), M_PI / 2, 1e-4) << s.failure;
 }
 
+// With --singular proximal the same sdirk4 run got status 0 in the band and
+// ended 0.46 rad off without an error.  The Mechanism now sees
+// last_solve_regularized() (JRGEN_SIM_SYSTEM finds it from inside this
+// namespace too) and rejects a step whose stage was regularized: the run ends
+// in a named step size underflow at the change point, naming the loop's joints.
+TEST(ExtremeTime, RegularizedStagesAreNotIntegratedSilently) {
+  EXPECT_NE(parallelogram(true).sys.last_solve_regularized, nullptr);
+  EXPECT_EQ(parallelogram(false).sys.last_solve_regularized, nullptr);
+  const Result s = checked(parallelogram(true), "sdirk4", 1e-7, {});
+  ASSERT_FALSE(s.ok) << "error " << s.err;
+  EXPECT_NE(s.failure.find("forward dynamics regularized"), std::string::npos) << s.failure;
+  EXPECT_NE(s.failure.find("joints 'crank_joint', 'coupler_joint', 'rocker_joint'"), std::string::npos) << s.failure;
+  EXPECT_NEAR(parallelogram_theta(0.3, 1.0, s.t_fail), M_PI / 2, 1e-4) << s.failure;
+}
+
 // Released at the change point itself.  Without --singular proximal the
 // velocity projection of the start fails: status 2 naming the loop, t = 0.
 // With it, auto at 1e-7 follows the reduced equation (table: 0.8 tol).
@@ -163,6 +178,15 @@ TEST(ExtremeTime, ParallelogramStartedAtItsChangePoint) {
   const Result p = checked(parallelogram(true, true), "auto", 1e-7, {});
   ASSERT_TRUE(p.ok) << p.failure;
   EXPECT_LT(p.err, 100 * 1e-7);
+  // The start is on the change point: its regularized answer is used, once, and said.
+  EXPECT_EQ(p.st.regularized_used, 1);
+  EXPECT_NE(p.st.regularized_note.find("at t = 0: forward dynamics regularized"), std::string::npos)
+      << p.st.regularized_note;
+  // dopri5 at 1e-10 took many short steps inside the band and ended 1.9e-3
+  // off without an error; now its regularized stages are rejected: named.
+  const Result t = checked(parallelogram(true, true), "dopri5", 1e-10, {});
+  if (t.ok) EXPECT_LT(t.err, 100 * 1e-10);
+  else EXPECT_NE(t.failure.find("forward dynamics regularized"), std::string::npos) << t.failure;
   const Result u = checked(parallelogram(true, true), "radau5", 1e-10, {});
   ASSERT_FALSE(u.ok);
   EXPECT_NE(u.failure.find("step size underflow"), std::string::npos) << u.failure;

@@ -51,6 +51,18 @@
 // loop): step size underflow (Newton divergence included), a non-zero solver
 // status, a projection that does not converge.  Never a silent blow-up: a
 // non-finite state is a solver status 3.
+//
+// Solvers generated with --singular proximal (docs/singular.md) answer at a
+// singular configuration with a regularized solve (status 0,
+// last_solve_regularized()).  The Mechanism sees that flag (System::
+// last_solve_regularized, filled by JRGEN_SIM_SYSTEM when the namespace has
+// it): a stage of a step that got a regularized answer rejects the step like
+// a failed solve (the regularized acceleration is not the limit along the
+// motion: it relaxes the vanishing constraint direction), so a run that
+// cannot step over the singular band ends in a named step size underflow;
+// a regularized answer at an accepted state (a run started or landing on the
+// singular configuration) is used, counted in Stats::regularized_used and
+// described in Stats::regularized_note (time, constraint row and joints).
 #pragma once
 
 #include <cmath>
@@ -58,6 +70,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 namespace jrgen::sim {
@@ -71,6 +84,12 @@ class Failure : public std::runtime_error {
 
 // ---------------------------------------------------------------------------
 // ODE layer
+
+/// OdeProblem::rhs may return this (not an error): dydt is valid but came
+/// from a regularized solve at a singular configuration (docs/singular.md),
+/// with `error` describing it.  A stage of a step rejects the step; at an
+/// accepted state the value is used and counted (Stats::regularized_used).
+inline constexpr int kRhsRegularized = -1;
 
 struct OdeProblem {
   int n = 0;
@@ -101,6 +120,9 @@ struct Stats {
   long factorizations = 0;  ///< LU factorizations of the Newton matrix (radau5, sdirk4)
   long newton_failures = 0; ///< steps retried because Newton did not converge
   long switches = 0;     ///< auto: 1 once it switched from dopri5 to radau5
+  long regularized = 0;  ///< f calls answered by a regularized solve (kRhsRegularized), used or not
+  long regularized_used = 0;  ///< of these, at accepted states: their answers are in the result
+  std::string regularized_note;  ///< the first used one: "at t = ...: " and rhs's description
   double t = 0.0;        ///< time reached
 };
 
@@ -139,7 +161,17 @@ struct System {
   /// energy is NaN.
   double (*potential_energy)(const double* q);
   const char* (*last_error)();
+  /// --singular proximal solvers: true after a regularized solve
+  /// (docs/singular.md); nullptr for solvers without the option.
+  bool (*last_solve_regularized)();
 };
+
+namespace detail {
+template <class T>
+struct TypeTag {
+  using type = T;
+};
+}  // namespace detail
 
 enum class Stabilization { kProjection, kBaumgarte, kNone };
 
@@ -193,6 +225,7 @@ class Mechanism {
 
  private:
   int rhs(double t, const double* y, double* dydt, std::string& error) const;
+  std::string singular_rows(const double* q) const;  // the dependent constraint row, for messages
   void retract(double* q, const double* dv) const;  // q <- q (+) dv
   void project_positions(double t, double* q) const;
   void project_velocities(double t, const double* q, double* v) const;
@@ -210,11 +243,41 @@ class Mechanism {
 
 }  // namespace jrgen::sim
 
+// JRGEN_SIM_SYSTEM's detection of ns::last_solve_regularized: with `using
+// namespace ns` and this fallback both visible, the call
+// last_solve_regularized() picks the non-template ns function when it exists
+// (it returns bool), else this template (it returns NoRegularization).  A
+// namespace of its own at global scope: a using-directive makes its names
+// visible in the nearest namespace enclosing both it and the use, the global
+// one, so that lookup from inside any other namespace (jrgen::..., a user's)
+// meets ns's function and this one in the same scope, not this one first.
+namespace jrgen_sim_regularization_fallback {
+struct NoRegularization {};
+template <int = 0>
+NoRegularization last_solve_regularized() {
+  return {};
+}
+}  // namespace jrgen_sim_regularization_fallback
+
 /// A jrgen::sim::System from the generated namespace `ns`.
 #define JRGEN_SIM_SYSTEM(ns)                                                                          \
   ::jrgen::sim::System {                                                                              \
     ns::nq, ns::nv, ns::nc, ns::njoints, ns::joint_names, ns::joint_q_index, ns::joint_v_index,      \
         &ns::forward_dynamics, &ns::solve_augmented, &ns::mass_matrix, &ns::bias_forces,              \
         &ns::constraints, &ns::constraint_jacobian, &ns::constraint_gamma, &ns::potential_energy,        \
-        &ns::last_error                                                                               \
+        &ns::last_error, JRGEN_SIM_REGULARIZED_FN(ns)                                                 \
   }
+
+/// &ns::last_solve_regularized, or nullptr when ns has none (a solver
+/// generated without --singular proximal).  C++17: the static_cast depends
+/// on the lambda's parameter, so the discarded branch is never instantiated.
+#define JRGEN_SIM_REGULARIZED_FN(ns)                                                                  \
+  [](auto tag) -> bool (*)() {                                                                        \
+    using R = typename decltype(tag)::type;                                                           \
+    using namespace ::jrgen_sim_regularization_fallback;                                               \
+    using namespace ns;                                                                               \
+    if constexpr (std::is_same<decltype(last_solve_regularized()), R>::value)                         \
+      return static_cast<R (*)()>(&last_solve_regularized);                                           \
+    else                                                                                              \
+      return nullptr;                                                                                 \
+  }(::jrgen::sim::detail::TypeTag<bool>{})
