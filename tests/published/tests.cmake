@@ -42,7 +42,7 @@ endif()
 # sweep and draws it; the ctest runs --quick (3 tolerances, short spans) and --check
 # (errors fall as tol tightens, auto within 100 x tol of each reference).
 add_executable(published_work_precision published/work_precision.cpp)
-target_link_libraries(published_work_precision PRIVATE ${_pub_targets} jrgen_runtime)
+target_link_libraries(published_work_precision PRIVATE ${_pub_targets} published_a02_proximal jrgen_runtime)
 target_compile_options(published_work_precision PRIVATE -Wall -Wextra -Wpedantic -Wshadow -Werror)
 add_test(NAME published_work_precision
          COMMAND published_work_precision --quick --check

@@ -33,6 +33,7 @@
 #include "andrews_reference.hpp"
 #include "published_a01.hpp"
 #include "published_a02.hpp"
+#include "published_a02_proximal.hpp"
 #include "published_a04.hpp"
 #include "published_a05.hpp"
 #include "published_andrews.hpp"
@@ -153,6 +154,7 @@ struct Problem {
   std::function<double(const double* y)> work;  ///< external work since t = 0 (A03's motor)
   std::vector<double> rk4_dt;
   std::vector<std::string> methods = {"dopri5", "radau5", "sdirk4", "auto"};
+  std::function<double(const double* y)> defect;  ///< A02: distance from the parallelogram
 };
 
 Problem a01(bool quick) {
@@ -165,23 +167,40 @@ Problem a01(bool quick) {
   return p;
 }
 
-Problem a02(bool quick) {
-  Problem p("A02", JRGEN_SIM_SYSTEM(published_a02), Vec(published_a02::nq), Vec(published_a02::nv));
+// A02: the published 20 s, through the flat (singular) configurations th = -pi/2 (mod pi);
+// --quick stops before the first one.  `solver` is the default or the proximal one.
+Problem a02_with(bool quick, const jrgen::sim::System& sys, const std::string& name) {
+  Problem p(name, sys, Vec(sys.nq), Vec(sys.nv));
   a02_state(0, -1, p.q0.data(), p.v0.data());
   const double t_flat = a02_time_flat();
-  p.t_end = 0.95 * t_flat;
+  p.t_end = quick ? 0.95 * t_flat : 20;
   char buf[200];
-  std::snprintf(buf, sizeof buf, "0.95 x the first flat (singular) configuration at t = %.6f s", t_flat);
+  std::snprintf(buf, sizeof buf, "%s; the first flat (singular) configuration at t = %.6f s",
+                quick ? "0.95 x the first flat configuration" : "the published 20 s", t_flat);
   p.span_note = buf;
   double d;
   const Vec th = a02_reference(p.t_end, &d);
   Vec v(p.q0.size());
   p.q_ref.resize(p.q0.size());
   a02_state(th[0], th[1], p.q_ref.data(), v.data());
-  std::snprintf(buf, sizeof buf, "th'' = %.6f sin th by dopri5 at 1e-14 (RK4, 2e5 steps: %.1e apart)", kA02c, d);
+  std::snprintf(buf, sizeof buf, "th'' = %.6f sin th by dopri5 at 1e-14 (RK4, 2e5 steps: %.1e apart), th(t_end) = %.6f",
+                kA02c, d, th[0]);
   p.ref_note = buf;
   p.rk4_dt = {1e-2, 3e-3, 1e-3};
-  (void)quick;
+  p.defect = [](const double* y) {  // max |q_i -+ q_0|: 0 on the parallelogram
+    double e = 0;
+    for (int i = 1; i < 2 * kN + 1; ++i) e = std::max(e, std::abs(y[i] - ((i % 2 == 0) ? y[0] : -y[0])));
+    return e;
+  };
+  return p;
+}
+
+Problem a02(bool quick) { return a02_with(quick, JRGEN_SIM_SYSTEM(published_a02), "A02"); }
+
+// The same with the regularized solver (--singular proximal, docs/singular.md).
+Problem a02_proximal() {
+  Problem p = a02_with(false, JRGEN_SIM_SYSTEM(published_a02_proximal), "A02-proximal");
+  p.rk4_dt = {1e-3};
   return p;
 }
 
@@ -243,7 +262,8 @@ Drift observed_run(const Problem& p, const Mechanism& m, const Settings& s, std:
   Vec y = m.initial_state(p.q0.data(), p.v0.data());
   const double e0 = m.energy(y.data());
   Drift d;
-  std::vector<Vec> rows;
+  std::vector<Vec> local;
+  std::vector<Vec>& rows = series ? *series : local;
   m.run(0, p.t_end, y, s, [&](double t, const double* yy) {
     const double e = m.energy(yy), ke = e - p.sys.potential_energy(yy);
     const double de = std::abs(e - (p.work ? p.work(yy) : 0.0) - e0);
@@ -252,13 +272,9 @@ Drift observed_run(const Problem& p, const Mechanism& m, const Settings& s, std:
     const double phi = m.phi_norm(yy), phiqv = m.phiqv_norm(yy);
     d.phi = std::max(d.phi, phi);
     d.phiqv = std::max(d.phiqv, phiqv);
-    if (series) rows.push_back({t, de, phi, phiqv});
+    if (series) rows.push_back({t, de, phi, phiqv, ke});
   });
   d.energy /= d.ke_max;
-  if (series) {
-    for (auto& r : rows) r[1] /= d.ke_max;
-    *series = std::move(rows);
-  }
   return d;
 }
 
@@ -286,6 +302,9 @@ Row timed_run(const Problem& p, const Mechanism& m, const Settings& s) {
     if (i == 0) {
       reps = times[0] < 0.02 ? 7 : times[0] < 0.5 ? 3 : 1;
       r.error = error_of(p, y.data());
+      if (p.defect && r.error > 1e-2)
+        std::fprintf(stderr, "%s %s tol %.0e dt %.0e: error %.2e, distance from the parallelogram %.2e\n",
+                     p.name.c_str(), s.method.c_str(), r.tol, r.dt, r.error, p.defect(y.data()));
     }
   }
   std::sort(times.begin(), times.end());
@@ -384,11 +403,13 @@ void write_series(FILE* f, const Problem& p) {
     } catch (const std::exception& e) {
       std::fprintf(stderr, "%s drift series (%s): %s\n", p.name.c_str(), label, e.what());
     }
+    double ke_max = 0;  // the energy drift's scale: the largest kinetic energy of the rows
+    for (const Vec& r : rows) ke_max = std::max(ke_max, r[4]);
     const std::size_t k = std::max<std::size_t>(1, rows.size() / 1500);
     for (std::size_t i = 0; i < rows.size(); ++i)
       if (i % k == 0 || i + 1 == rows.size())
         std::fprintf(f, "%s\t%s\t%.6e\t%.3e\t%.3e\t%.3e\n", p.name.c_str(), label, rows[i][0],
-                     p.conserves || p.work ? rows[i][1] : NAN, rows[i][2], rows[i][3]);
+                     p.conserves || p.work ? rows[i][1] / ke_max : NAN, rows[i][2], rows[i][3]);
   }
 }
 
@@ -488,6 +509,13 @@ int main(int argc, char** argv) {
       if (ser) write_series(ser, p);
       if (o.check) fails += check_runs(p, rows);
     }
+    if (!o.quick && (o.only.empty() || o.only == "A02"))
+      {
+        const Problem p = a02_proximal();
+        std::fprintf(stderr, "%s: t_end = %g s (%s); reference: %s\n", p.name.c_str(), p.t_end, p.span_note.c_str(),
+                     p.ref_note.c_str());
+        sweep(p, Mechanism(p.sys), {1e-3, 1e-5, 1e-7, 1e-9}, false, 3.0, out);  // radau5, sdirk4: 5-30 s at 1e-7
+      }
     if (out != stdout) std::fclose(out);
     if (ser && ser != stdout) std::fclose(ser);
     if (fails) std::fprintf(stderr, "%d check(s) failed\n", fails);
