@@ -68,25 +68,24 @@ def gnuplot(script, failures, what):
 
 def plot_wp(problem, rows, spans, out, failures):
     """Error against CPU time (left) and against forward-dynamics calls (right)."""
-    dat = os.path.join(out, f"wp_{problem}.dat")
-    with open(dat, "w") as f:
-        for m in METHODS:
+    png = os.path.join(out, f"wp_{problem}.png")
+    present = [m for m in METHODS if any(r["method"] == m and ok(r) for r in rows)]
+    dats = {}
+    for m in present:  # one file per method: no empty gnuplot blocks
+        dats[m] = os.path.join(out, f"wp_{problem}_{m}.dat")
+        with open(dats[m], "w") as f:
             for r in rows:
                 if r["method"] == m and ok(r):
                     f.write(f"{num(r['cpu_s']):.6g} {int(r['fd_calls'])} {num(r['error']):.6g} \"{label(r)}\"\n")
-            f.write("\n\n")  # one gnuplot index per method
-    png = os.path.join(out, f"wp_{problem}.png")
-    present = [m for m in METHODS if any(r["method"] == m and ok(r) for r in rows)]
 
     def series(xcol):
         s = []
         for m in present:
             c, pt, dt = STYLE[m]
-            i = METHODS.index(m)
-            s.append(f"'{dat}' index {i} using {xcol}:3 with linespoints lc rgb '{c}' pt {pt} ps 1.3 dt {dt} "
+            s.append(f"'{dats[m]}' using {xcol}:3 with linespoints lc rgb '{c}' pt {pt} ps 1.3 dt {dt} "
                      f"lw 1.5 title '{m}'")
             if m != "auto":  # auto's points sit on dopri5's (or radau5's) where it does not switch
-                s.append(f"'{dat}' index {i} using {xcol}:3:4 with labels offset char 0.3,0.6 left font ',7' "
+                s.append(f"'{dats[m]}' using {xcol}:3:4 with labels offset char 0.3,0.6 left font ',7' "
                          f"tc rgb '{c}' notitle")
         return ", ".join(s)
 
@@ -121,9 +120,12 @@ def plot_drift(problem, srows, conserves, has_constraints, out, failures):
                     f.write(f"{r['t']} {r['energy_drift']} {r['phi']} {r['phiqv']}\n")
             f.write("\n\n")
     present = [st for st in stabs if any(r["stabilization"] == st for r in srows)]
+    t_last = {st: max(num(r["t"]) for r in srows if r["stabilization"] == st) for st in present}
+    t_end = max(t_last.values())
+    title = {st: st if t_last[st] >= t_end else f"{st} (failed at t = {t_last[st]:.3g} s)" for st in present}
     if conserves:
         lines = [f"'{dat}' index {stabs.index(st)} using 1:($2>0?$2:1/0) with lines lw 1.5 "
-                 f"lc rgb '{'#1f77b4' if st == 'projection' else '#d62728'}' title '{st}'" for st in present]
+                 f"lc rgb '{'#1f77b4' if st == 'projection' else '#d62728'}' title '{title[st]}'" for st in present]
         ylabel = ("|E - W_motor - E0| / max kinetic energy" if problem == "A03"
                   else "|E - E0| / max kinetic energy")
         panels.append(f"set ylabel '{ylabel}'\nplot {', '.join(lines)}")
@@ -132,17 +134,18 @@ def plot_drift(problem, srows, conserves, has_constraints, out, failures):
         for st in present:
             c = '#1f77b4' if st == 'projection' else '#d62728'
             i = stabs.index(st)
-            lines.append(f"'{dat}' index {i} using 1:($3>0?$3:1/0) with lines lw 1.5 lc rgb '{c}' title 'max |Phi|, {st}'")
+            lines.append(f"'{dat}' index {i} using 1:($3>0?$3:1/0) with lines lw 1.5 lc rgb '{c}' title 'max |Phi|, {title[st]}'")
             lines.append(f"'{dat}' index {i} using 1:($4>0?$4:1/0) with lines lw 1.5 dt 2 lc rgb '{c}' "
-                         f"title 'max |Phiq v|, {st}'")
+                         f"title 'max |Phiq v|, {title[st]}'")
         panels.append(f"set ylabel 'constraint drift [m], [m/s]'\nplot {', '.join(lines)}")
     if not panels:
         return None
     png = os.path.join(out, f"drift_{problem}.png")
     body = "\n".join(panels)
+    subtitle = "projection vs no stabilization" if has_constraints else "a tree: no constraints"
     gnuplot(f"""set terminal pngcairo size 900,{300 * len(panels) + 80} font 'sans,10' noenhanced
 set output '{png}'
-set multiplot layout {len(panels)},1 title "{problem}: drift over the run (auto, tol 1e-6; projection vs no stabilization)"
+set multiplot layout {len(panels)},1 title "{problem}: drift over the run (auto, tol 1e-6; {subtitle})"
 set logscale y
 set format y '%.0e'
 set grid
