@@ -123,6 +123,8 @@ def plot_drift(problem, srows, conserves, has_constraints, out, failures):
     t_last = {st: max(num(r["t"]) for r in srows if r["stabilization"] == st) for st in present}
     t_end = max(t_last.values())
     title = {st: st if t_last[st] >= t_end else f"{st} (failed at t = {t_last[st]:.3g} s)" for st in present}
+    if not has_constraints:  # a tree: nothing to stabilize
+        title = {st: "auto, tol 1e-6" for st in present}
     if conserves:
         lines = [f"'{dat}' index {stabs.index(st)} using 1:($2>0?$2:1/0) with lines lw 1.5 "
                  f"lc rgb '{'#1f77b4' if st == 'projection' else '#d62728'}' title '{title[st]}'" for st in present]
