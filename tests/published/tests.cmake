@@ -36,3 +36,15 @@ if(EXISTS "${PROJECT_SOURCE_DIR}/generator/emit/force_elements.hpp")
 else()
   target_compile_definitions(published_test PRIVATE JR_FORCE_ELEMENTS=0)
 endif()
+
+# Work-precision of the simulation layer on the five problems (issue 21 item 3;
+# docs/simulation.md, "Work-precision"): scripts/simulation_report.sh runs the full
+# sweep and draws it; the ctest runs --quick (3 tolerances, short spans) and --check
+# (errors fall as tol tightens, auto within 100 x tol of each reference).
+add_executable(published_work_precision published/work_precision.cpp)
+target_link_libraries(published_work_precision PRIVATE ${_pub_targets} published_a02_proximal jrgen_runtime)
+target_compile_options(published_work_precision PRIVATE -Wall -Wextra -Wpedantic -Wshadow -Werror)
+add_test(NAME published_work_precision
+         COMMAND published_work_precision --quick --check
+                 -o ${CMAKE_CURRENT_BINARY_DIR}/published_work_precision_quick.tsv)
+set_tests_properties(published_work_precision PROPERTIES TIMEOUT 300)
