@@ -33,6 +33,11 @@ LABELS = {
     "gen_ldlt": "generated LDLT",
     "mujoco": "MuJoCo mj_factorM+solveM",
 }
+# One colour per method in every plot (gnuplot's default yellow is hard to see).
+COLORS = {
+    "gauss": "#9400d3", "symmetric": "#009e73", "sparse": "#56b4e9", "alg_d": "#e69f00",
+    "alg_s": "#8b4513", "gen_llt": "#0072b2", "gen_ldlt": "#d62728", "mujoco": "#000000",
+}
 STEPS = ["1", "2", "3.1", "3.2", "3.3", "3.4", "3.5", "4"]
 # The paper's Table 4 and 5 (HMMWV, microseconds, 1997 hardware).
 PAPER_T4 = {"gauss": 2336, "symmetric": 2022, "sparse": 3532, "alg_s": 1201, "alg_d": 1179}
@@ -169,15 +174,15 @@ def plot_error_vs_time(models, out, failures):
                     err = max(r["err_qdd"], 1e-18)  # exact results on a log axis
                     f.write(f"{r['time']:.6g} {err:.6g} {i} \"{meth}\"\n")
         svg = os.path.join(pdir, f"err_time_{m['name']}.png")
-        series = [f"'{dat}' using 1:(($3=={i})?$2:1/0) with points pt {i + 4} ps 1.6 lw 2 title '{meth}'"
+        series = [f"'{dat}' using 1:(($3=={i})?$2:1/0) with points pt {i + 4} ps 1.6 lw 2 lc rgb '{COLORS[meth]}' title '{LABELS[meth]}'"
                   for i, meth in enumerate(METHODS) if meth in m["methods"]]
         gnuplot(f"""set terminal pngcairo size 800,500 font 'sans,10' noenhanced
 set output '{svg}'
-set title "{m['name']} (nv {m['nv']}, nc {m['nc']}): error against time"
+set title "{m['name']} (nv {m['nv']}, nc {m['nc']}): error of qdd against time of one solve (lower left is better)"
 set logscale xy
-set xlabel 'median CPU time per solve [us]'
-set ylabel 'relative error of qdd'
-set key outside right font 'sans,9'
+set xlabel 'median CPU time per solve [µs]'
+set ylabel 'error of qdd, relative to an extended-precision solve'
+set key outside right top Left reverse font 'sans,9' title 'method'
 set grid
 plot {', '.join(series)}
 """, failures, svg)
@@ -207,15 +212,15 @@ def plot_scaling(models, out, failures):
             with open(dat, "w") as f:
                 for n, t in pts:
                     f.write(f"{n} {t:.6g}\n")
-            plots.append(f"'{dat}' using 1:2 with linespoints lw 1.5 pt {i + 4} title '{meth} (slope {s:.2f})'")
+            plots.append(f"'{dat}' using 1:2 with linespoints lw 1.5 pt {i + 4} lc rgb '{COLORS[meth]}' title '{LABELS[meth]}: slope {s:.2f}'")
         svg = os.path.join(pdir, f"scaling_{fam}.png")
-        gnuplot(f"""set terminal pngcairo size 900,560 font 'sans,10' noenhanced
+        gnuplot(f"""set terminal pngcairo size 900,600 font 'sans,10' noenhanced
 set output '{svg}'
-set title "{fam}: time against size (log-log, least-squares slopes)"
+set title "{fam} ({', '.join(m['name'] for m in ms)}): time of one solve against size\\nslope: least-squares fit of log t against log K (time grows as K^slope)"
 set logscale xy
-set xlabel 'K = nv + nc'
-set ylabel 'median CPU time per solve [us]'
-set key top left font 'sans,9'
+set xlabel 'K = nv + nc (unknowns of eq. 17: velocities + constraint rows)'
+set ylabel 'median CPU time per solve [µs]'
+set key below Left reverse font 'sans,9' maxcols 3 samplen 3 height 1.5
 set grid
 plot {', '.join(plots)}
 """, failures, svg)
@@ -369,7 +374,12 @@ def write_report(models, out, args, failures, notes, elapsed):
     slopes, scaling_files = plot_scaling(models, out, failures)
     if scaling_files:
         w("## Scaling: time against K on log-log axes\n")
-        fams = [f for f, _, _ in scaling_files]
+        w("One picture per family of models (the same kind of mechanism at growing size): the median CPU time "
+          "of one solve of eq. (17) in µs against K = nv + nc, the number of unknowns (velocities plus "
+          "constraint rows), both axes logarithmic, one line per method. A straight line of slope s means a "
+          "time growing as K^s (dense LU: up to 3; a sparse tree solve: about 1); the slope in the legend is "
+          "the least-squares fit over the family's models. A method missing from a picture did not run on those "
+          "models (MuJoCo: closed loops, or chains of more than ~98 bodies, which its XML reader rejects).\n")
         w("Least-squares slope of log t against log K per method and model family:\n")
         w("| family | models | " + " | ".join(present) + " |")
         w("|---|---|" + "---:|" * len(present))
@@ -380,6 +390,10 @@ def write_report(models, out, args, failures, notes, elapsed):
         for fam, svg, _ in scaling_files:
             w(f"![{fam}]({os.path.relpath(svg, out)})\n")
     w("## Error against time, per model\n")
+    w("One picture per model, one point per method: the median CPU time of one solve in µs (x) against the "
+      "relative error of qdd (y, the norm of the difference from an extended-precision solve of the same "
+      "system divided by the norm of that solution), both axes logarithmic; lower and further left is better. "
+      "An exact result (error 0) is drawn at 1e-18.\n")
     for svg in err_files:
         w(f"![{os.path.basename(svg)}]({os.path.relpath(svg, out)})\n")
     if notes:
