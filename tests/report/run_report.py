@@ -103,6 +103,7 @@ def parse(name, data):
          "cond_M": float(ctx["cond1_M"]), "cond_W": float(ctx["cond1_W"]), "state": ctx.get("state", ""),
          "mujoco_check": ctx.get("mujoco_check", ""), "checks": ctx.get("checks", ""),
          "compile_flags": ctx.get("compile_flags", "unknown"),
+         "date": ctx.get("date", ""), "load": (ctx.get("load_avg") or [None])[0],
          "methods": {}, "steps": {}, "prefix": {}, "fd": {}}
     for b in data["benchmarks"]:
         if b.get("aggregate_name") != "median":
@@ -151,6 +152,31 @@ def fit_slope(points):
     return sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / sxx
 
 
+def log_range(lo, hi, pad=1.5):
+    """A log axis a factor pad beyond the data, its ends rounded out to 1, 2
+    or 5 times a power of ten: no point on the border, little empty space."""
+    def nice(x, up):
+        e = math.floor(math.log10(x))
+        steps = [1, 2, 5, 10]
+        m = x / 10.0 ** e
+        f = min(s for s in steps if s >= m * (1 - 1e-12)) if up else max(s for s in steps if s <= m * (1 + 1e-12))
+        return f * 10.0 ** e
+    return nice(lo / pad, False), nice(hi * pad, True)
+
+
+def log_tics(axis, lo, hi):
+    """Labels at 1, 2 and 5 times each power of ten when the axis spans less
+    than two decades (gnuplot labels only whole decades, maybe just one)."""
+    if hi / lo >= 100:
+        return ""
+    vals = [f * 10.0 ** e for e in range(math.floor(math.log10(lo)), math.ceil(math.log10(hi)) + 1)
+            for f in (1, 2, 5)]
+    def label(v):
+        return f"{v:g}" if 1e-3 <= v < 1e6 else f"{v:.0e}".replace("e-0", "e-").replace("e+0", "e")
+    return f"set {axis}tics (" + ", ".join(f'"{label(v)}" {v:.6g}' for v in vals
+                                           if lo * (1 - 1e-9) <= v <= hi * (1 + 1e-9)) + ")"
+
+
 def gnuplot(script, failures, what):
     if not shutil.which("gnuplot"):
         failures.append(f"gnuplot not found: no {what}")
@@ -174,12 +200,19 @@ def plot_error_vs_time(models, out, failures):
                     err = max(r["err_qdd"], 1e-18)  # exact results on a log axis
                     f.write(f"{r['time']:.6g} {err:.6g} {i} \"{meth}\"\n")
         svg = os.path.join(pdir, f"err_time_{m['name']}.png")
+        pts = [(r["time"], max(r["err_qdd"], 1e-18)) for r in m["methods"].values() if r["err_qdd"] is not None]
+        x0, x1 = log_range(min(t for t, _ in pts), max(t for t, _ in pts))
+        y0, y1 = log_range(min(e for _, e in pts), max(e for _, e in pts))
         series = [f"'{dat}' using 1:(($3=={i})?$2:1/0) with points pt {i + 4} ps 1.6 lw 2 lc rgb '{COLORS[meth]}' title '{LABELS[meth]}'"
                   for i, meth in enumerate(METHODS) if meth in m["methods"]]
         gnuplot(f"""set terminal pngcairo size 800,500 font 'sans,10' noenhanced
 set output '{svg}'
 set title "{m['name']} (nv {m['nv']}, nc {m['nc']}): error of qdd against time of one solve (lower left is better)"
 set logscale xy
+set xrange [{x0:g}:{x1:g}]
+set yrange [{y0:g}:{y1:g}]
+{log_tics('x', x0, x1)}
+{log_tics('y', y0, y1)}
 set xlabel 'median CPU time per solve [µs]'
 set ylabel 'error of qdd, relative to an extended-precision solve'
 set key outside right top Left reverse font 'sans,9' title 'method'
@@ -212,15 +245,26 @@ def plot_scaling(models, out, failures):
             with open(dat, "w") as f:
                 for n, t in pts:
                     f.write(f"{n} {t:.6g}\n")
-            plots.append(f"'{dat}' using 1:2 with linespoints lw 1.5 pt {i + 4} lc rgb '{COLORS[meth]}' title '{LABELS[meth]}: slope {s:.2f}'")
+            # A method that ran on part of the family only (MuJoCo on long
+            # chains): its slope is over that part, and the legend says so.
+            part = f" (K {pts[0][0]}-{pts[-1][0]})" if len(pts) < len(ms) else ""
+            plots.append(f"'{dat}' using 1:2 with linespoints lw 1.5 pt {i + 4} lc rgb '{COLORS[meth]}' "
+                         f"title '{LABELS[meth]}: slope {s:.2f}{part}'")
         svg = os.path.join(pdir, f"scaling_{fam}.png")
+        times = [r["time"] for m in ms for r in m["methods"].values()]
+        y0, y1 = log_range(min(times), max(times))
+        ks = [m["K"] for m in ms]
         gnuplot(f"""set terminal pngcairo size 900,600 font 'sans,10' noenhanced
 set output '{svg}'
 set title "{fam} ({', '.join(m['name'] for m in ms)}): time of one solve against size\\nslope: least-squares fit of log t against log K (time grows as K^slope)"
 set logscale xy
+set xrange [{ks[0] / 1.25:g}:{ks[-1] * 1.25:g}]
+set yrange [{y0:g}:{y1:g}]
+set xtics ({', '.join(str(k) for k in ks)})
+{log_tics('y', y0, y1)}
 set xlabel 'K = nv + nc (unknowns of eq. 17: velocities + constraint rows)'
 set ylabel 'median CPU time per solve [µs]'
-set key below Left reverse font 'sans,9' maxcols 3 samplen 3 height 1.5
+set key below Left reverse font 'sans,9' maxcols 3 samplen 3 width -3 height 1.5
 set grid
 plot {', '.join(plots)}
 """, failures, svg)
@@ -270,6 +314,15 @@ def write_report(models, out, args, failures, notes, elapsed):
       f"commit {commit or 'unknown'}; {cpu}, {os.cpu_count()} logical CPUs, {platform.platform()}; "
       f"load average {os.getloadavg()[0]:.2f}; "
       + ("formatted again from an earlier run's JSON.\n" if args.reuse else f"total run time {elapsed:.0f} s.\n"))
+    # When the programs ran and how loaded the machine was, from each
+    # program's Google Benchmark context (also right for --reuse).
+    dates = sorted(m["date"][:16].replace("T", " ") for m in models if m["date"])
+    loads = [m["load"] for m in models if m["load"] is not None]
+    if dates and loads:
+        w(f"Programs run {dates[0]} to {dates[-1][11:]} UTC; 1-minute load average as each program started "
+          f"{min(loads):.2f} to {max(loads):.2f} on {os.cpu_count()} CPUs (above {os.cpu_count()}: other "
+          "processes competed for the CPUs; the times are CPU times, medians of repetitions, less affected "
+          "than wall time but not immune).\n")
     flags = sorted({m["compile_flags"] for m in models})
     w(f"Compiled with {'; '.join(f'`{f}`' for f in flags) or 'unknown flags'} (every timed method but the "
       "prebuilt libraries: LAPACKE/OpenBLAS, UMFPACK, MuJoCo).\n")
