@@ -6,8 +6,9 @@
 #   scripts/pictures.sh --report [--quick] [REPORT_BUILD_DIR]
 #     runs the solver report (scripts/report.sh REPORT_BUILD_DIR, default
 #     build-report: the default model set, up to ~1000 dofs, a long build;
-#     --quick: the small CI set, no time-against-size plots) and copies its
-#     plots and report.md into docs/pictures/report/.
+#     --quick: the small CI set, without the time-against-size plots the
+#     README links, and it says so) and copies its plots and report.md into
+#     docs/pictures/report/.
 #   scripts/pictures.sh --copy-report REPORT_DIR
 #     copies an earlier report's plots (REPORT_DIR/plots/*.png: time against
 #     model size per family, error against run time per model) and its
@@ -22,6 +23,11 @@ copy_report() {  # REPORT_DIR
   # The plots sit beside report.md here, not in plots/.
   sed 's|](plots/|](|g' "$src/report.md" > "$dst/report.md"
   echo "pictures.sh: copied $(ls "$dst"/*.png | wc -l) plots and report.md to $dst" >&2
+  # A --quick report has no time-against-size plots: say which links broke.
+  local f
+  for f in $(grep -o 'docs/pictures/report/[A-Za-z0-9_]*\.png' "$root/README.md" "$root"/docs/*.md | cut -d: -f2 | sort -u); do
+    [ -e "$root/$f" ] || echo "pictures.sh: warning: $f is linked from the docs but this report has no such plot" >&2
+  done
 }
 case "${1:-}" in
   --copy-report)

@@ -481,6 +481,8 @@ def main():
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--reuse", action="store_true", help="format the JSON of an earlier run again, run nothing")
     args = ap.parse_args()
+    # The programs run in OUT/work: a relative OUT would name the wrong place.
+    args.out = os.path.abspath(args.out)
     programs = []
     with open(args.programs) as f:
         for line in f:
