@@ -33,6 +33,11 @@ LABELS = {
     "gen_ldlt": "generated LDLT",
     "mujoco": "MuJoCo mj_factorM+solveM",
 }
+# One colour per method in every plot (gnuplot's default yellow is hard to see).
+COLORS = {
+    "gauss": "#9400d3", "symmetric": "#009e73", "sparse": "#56b4e9", "alg_d": "#e69f00",
+    "alg_s": "#8b4513", "gen_llt": "#0072b2", "gen_ldlt": "#d62728", "mujoco": "#000000",
+}
 STEPS = ["1", "2", "3.1", "3.2", "3.3", "3.4", "3.5", "4"]
 # The paper's Table 4 and 5 (HMMWV, microseconds, 1997 hardware).
 PAPER_T4 = {"gauss": 2336, "symmetric": 2022, "sparse": 3532, "alg_s": 1201, "alg_d": 1179}
@@ -98,6 +103,7 @@ def parse(name, data):
          "cond_M": float(ctx["cond1_M"]), "cond_W": float(ctx["cond1_W"]), "state": ctx.get("state", ""),
          "mujoco_check": ctx.get("mujoco_check", ""), "checks": ctx.get("checks", ""),
          "compile_flags": ctx.get("compile_flags", "unknown"),
+         "date": ctx.get("date", ""), "load": (ctx.get("load_avg") or [None])[0],
          "methods": {}, "steps": {}, "prefix": {}, "fd": {}}
     for b in data["benchmarks"]:
         if b.get("aggregate_name") != "median":
@@ -146,6 +152,33 @@ def fit_slope(points):
     return sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / sxx
 
 
+def log_range(lo, hi, pad=1.5):
+    """A log axis a factor pad beyond the data, its ends rounded out to 1, 2
+    or 5 times a power of ten: no point on the border, little empty space."""
+    def nice(x, up):
+        e = math.floor(math.log10(x))
+        steps = [1, 2, 5, 10]
+        m = x / 10.0 ** e
+        f = min(s for s in steps if s >= m * (1 - 1e-12)) if up else max(s for s in steps if s <= m * (1 + 1e-12))
+        return f * 10.0 ** e
+    # 1e-3 wider than the round ends: gnuplot drops a tic a rounding error
+    # beyond the range (tree_1000's "1e-14" on the border).
+    return nice(lo / pad, False) * (1 - 1e-3), nice(hi * pad, True) * (1 + 1e-3)
+
+
+def log_tics(axis, lo, hi):
+    """Labels at 1, 2 and 5 times each power of ten when the axis spans less
+    than two decades (gnuplot labels only whole decades, maybe just one)."""
+    if hi / lo >= 100:
+        return ""
+    vals = [f * 10.0 ** e for e in range(math.floor(math.log10(lo)), math.ceil(math.log10(hi)) + 1)
+            for f in (1, 2, 5)]
+    def label(v):
+        return f"{v:g}" if 1e-3 <= v < 1e6 else f"{v:.0e}".replace("e-0", "e-").replace("e+0", "e")
+    return f"set {axis}tics (" + ", ".join(f'"{label(v)}" {v:.6g}' for v in vals
+                                           if lo * (1 - 1e-9) <= v <= hi * (1 + 1e-9)) + ")"
+
+
 def gnuplot(script, failures, what):
     if not shutil.which("gnuplot"):
         failures.append(f"gnuplot not found: no {what}")
@@ -169,15 +202,27 @@ def plot_error_vs_time(models, out, failures):
                     err = max(r["err_qdd"], 1e-18)  # exact results on a log axis
                     f.write(f"{r['time']:.6g} {err:.6g} {i} \"{meth}\"\n")
         svg = os.path.join(pdir, f"err_time_{m['name']}.png")
-        series = [f"'{dat}' using 1:(($3=={i})?$2:1/0) with points pt {i + 4} ps 1.6 lw 2 title '{meth}'"
+        pts = [(r["time"], max(r["err_qdd"], 1e-18)) for r in m["methods"].values() if r["err_qdd"] is not None]
+        x0, x1 = log_range(min(t for t, _ in pts), max(t for t, _ in pts))
+        y0, y1 = log_range(min(e for _, e in pts), max(e for _, e in pts))
+        series = [f"'{dat}' using 1:(($3=={i})?$2:1/0) with points pt {i + 4} ps 1.6 lw 2 lc rgb '{COLORS[meth]}' title '{LABELS[meth]}'"
                   for i, meth in enumerate(METHODS) if meth in m["methods"]]
+        # The hollow markers (even gnuplot point types) again on top, so that a
+        # point under a filled one stays visible (on the 1000-dof trees the
+        # generated solver is table-driven: Alg-S's time and error exactly).
+        series += [f"'{dat}' using 1:(($3=={i})?$2:1/0) with points pt {i + 4} ps 1.6 lw 2 lc rgb '{COLORS[meth]}' notitle"
+                   for i, meth in enumerate(METHODS) if meth in m["methods"] and (i + 4) % 2 == 0]
         gnuplot(f"""set terminal pngcairo size 800,500 font 'sans,10' noenhanced
 set output '{svg}'
-set title "{m['name']} (nv {m['nv']}, nc {m['nc']}): error against time"
+set title "{m['name']} (nv {m['nv']}, nc {m['nc']}): error of qdd against time of one solve (lower left is better)"
 set logscale xy
-set xlabel 'median CPU time per solve [us]'
-set ylabel 'relative error of qdd'
-set key outside right font 'sans,9'
+set xrange [{x0:g}:{x1:g}]
+set yrange [{y0:g}:{y1:g}]
+{log_tics('x', x0, x1)}
+{log_tics('y', y0, y1)}
+set xlabel 'median CPU time per solve [µs]'
+set ylabel 'error of qdd, relative to an extended-precision solve'
+set key outside right top Left reverse font 'sans,9' title 'method'
 set grid
 plot {', '.join(series)}
 """, failures, svg)
@@ -207,15 +252,26 @@ def plot_scaling(models, out, failures):
             with open(dat, "w") as f:
                 for n, t in pts:
                     f.write(f"{n} {t:.6g}\n")
-            plots.append(f"'{dat}' using 1:2 with linespoints lw 1.5 pt {i + 4} title '{meth} (slope {s:.2f})'")
+            # A method that ran on part of the family only (MuJoCo on long
+            # chains): its slope is over that part, and the legend says so.
+            part = f" (K {pts[0][0]}-{pts[-1][0]})" if len(pts) < len(ms) else ""
+            plots.append(f"'{dat}' using 1:2 with linespoints lw 1.5 pt {i + 4} lc rgb '{COLORS[meth]}' "
+                         f"title '{LABELS[meth]}: slope {s:.2f}{part}'")
         svg = os.path.join(pdir, f"scaling_{fam}.png")
-        gnuplot(f"""set terminal pngcairo size 900,560 font 'sans,10' noenhanced
+        times = [r["time"] for m in ms for r in m["methods"].values()]
+        y0, y1 = log_range(min(times), max(times))
+        ks = [m["K"] for m in ms]
+        gnuplot(f"""set terminal pngcairo size 900,600 font 'sans,10' noenhanced
 set output '{svg}'
-set title "{fam}: time against size (log-log, least-squares slopes)"
+set title "{fam} ({', '.join(m['name'] for m in ms)}): time of one solve against size\\nslope: least-squares fit of log t against log K (time grows as K^slope)"
 set logscale xy
-set xlabel 'K = nv + nc'
-set ylabel 'median CPU time per solve [us]'
-set key top left font 'sans,9'
+set xrange [{ks[0] / 1.25:g}:{ks[-1] * 1.25:g}]
+set yrange [{y0:g}:{y1:g}]
+set xtics ({', '.join(str(k) for k in ks)})
+{log_tics('y', y0, y1)}
+set xlabel 'K = nv + nc (unknowns of eq. 17: velocities + constraint rows)'
+set ylabel 'median CPU time per solve [µs]'
+set key below Left reverse font 'sans,9' maxcols 3 samplen 3 width -3 height 1.5
 set grid
 plot {', '.join(plots)}
 """, failures, svg)
@@ -265,6 +321,15 @@ def write_report(models, out, args, failures, notes, elapsed):
       f"commit {commit or 'unknown'}; {cpu}, {os.cpu_count()} logical CPUs, {platform.platform()}; "
       f"load average {os.getloadavg()[0]:.2f}; "
       + ("formatted again from an earlier run's JSON.\n" if args.reuse else f"total run time {elapsed:.0f} s.\n"))
+    # When the programs ran and how loaded the machine was, from each
+    # program's Google Benchmark context (also right for --reuse).
+    dates = sorted(m["date"][:16].replace("T", " ") for m in models if m["date"])
+    loads = [m["load"] for m in models if m["load"] is not None]
+    if dates and loads:
+        w(f"Programs run {dates[0]} to {dates[-1][11:]} UTC; 1-minute load average as each program started "
+          f"{min(loads):.2f} to {max(loads):.2f} on {os.cpu_count()} CPUs (above {os.cpu_count()}: other "
+          "processes competed for the CPUs; the times are CPU times, medians of repetitions, less affected "
+          "than wall time but not immune).\n")
     flags = sorted({m["compile_flags"] for m in models})
     w(f"Compiled with {'; '.join(f'`{f}`' for f in flags) or 'unknown flags'} (every timed method but the "
       "prebuilt libraries: LAPACKE/OpenBLAS, UMFPACK, MuJoCo).\n")
@@ -369,7 +434,13 @@ def write_report(models, out, args, failures, notes, elapsed):
     slopes, scaling_files = plot_scaling(models, out, failures)
     if scaling_files:
         w("## Scaling: time against K on log-log axes\n")
-        fams = [f for f, _, _ in scaling_files]
+        w("One picture per family of models (the same kind of mechanism at growing size): the median CPU time "
+          "of one solve of eq. (17) in µs against K = nv + nc, the number of unknowns (velocities plus "
+          "constraint rows), both axes logarithmic, one line per method. A straight line of slope s means a "
+          "time growing as K^s (dense LU: up to 3; a sparse tree solve: about 1); the slope in the legend is "
+          "the least-squares fit over the family's models. A method missing from a picture did not run on those "
+          "models (MuJoCo: closed loops, or chains of more than ~98 bodies, which its XML reader rejects); its "
+          "legend then gives the range of K its slope is fitted over.\n")
         w("Least-squares slope of log t against log K per method and model family:\n")
         w("| family | models | " + " | ".join(present) + " |")
         w("|---|---|" + "---:|" * len(present))
@@ -380,6 +451,12 @@ def write_report(models, out, args, failures, notes, elapsed):
         for fam, svg, _ in scaling_files:
             w(f"![{fam}]({os.path.relpath(svg, out)})\n")
     w("## Error against time, per model\n")
+    w("One picture per model, one point per method: the median CPU time of one solve in µs (x) against the "
+      "relative error of qdd (y, the norm of the difference from an extended-precision solve of the same "
+      "system divided by the norm of that solution), both axes logarithmic; lower and further left is better. "
+      "An exact result (error 0) is drawn at 1e-18. Hollow markers are drawn again on top, so that two methods "
+      "with the same time and error (Alg-S and the table-driven generated solver on the 1000-dof trees) both "
+      "show.\n")
     for svg in err_files:
         w(f"![{os.path.basename(svg)}]({os.path.relpath(svg, out)})\n")
     if notes:
@@ -404,6 +481,8 @@ def main():
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--reuse", action="store_true", help="format the JSON of an earlier run again, run nothing")
     args = ap.parse_args()
+    # The programs run in OUT/work: a relative OUT would name the wrong place.
+    args.out = os.path.abspath(args.out)
     programs = []
     with open(args.programs) as f:
         for line in f:
