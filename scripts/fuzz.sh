@@ -22,7 +22,10 @@ shift || true
 build=build-fuzz
 cxx=${JRGEN_FUZZ_CXX:-clang++-14}
 
-cmake -S . -B "$build" -DJRGEN_FUZZ=ON -DCMAKE_CXX_COMPILER="$cxx" -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
+# JRGEN_RUNTIME_SUBSET: the fuzz target links runtime.cpp alone of the runtime
+# (CMakeLists.txt); the other runtime files would be compiled for nothing.
+cmake -S . -B "$build" -DJRGEN_FUZZ=ON -DCMAKE_CXX_COMPILER="$cxx" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DJRGEN_RUNTIME_SUBSET=runtime >/dev/null
 cmake --build "$build" -j2 --target fuzz_urdf
 mkdir -p "$build/fuzz-corpus" "$build/fuzz-artifacts"
 echo "fuzz.sh: fuzzing for ${seconds}s"

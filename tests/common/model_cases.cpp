@@ -349,14 +349,27 @@ std::vector<ModelCase> long_chains() {
   return {{"chain_1000", chain_urdf(1000, 2026)}, {"chain_10000", chain_urdf(10000, 2026)}, hanging_rope_loop(300)};
 }
 
+namespace {
+
+// Each list of the cases, built once per process, on first use.
+template <std::vector<ModelCase> (*Make)()>
+const std::vector<ModelCase>& built_once() {
+  static const std::vector<ModelCase> cases = Make();
+  return cases;
+}
+
+}  // namespace
+
+// The lists in the order of all_models() and then long_chains(), each built
+// only when the lists before it do not hold the name.  ctest runs every test
+// in a process of its own, which asks for one case: building every list (the
+// 10 000-joint chain's URDF above all) cost each of the suite's ~2000 test
+// processes about 0.2 s of CPU (docs/testing.md, "CI time").
 const ModelCase& find_model_case(const std::string& name) {
-  static const std::vector<ModelCase> cases = [] {
-    std::vector<ModelCase> out = all_models();
-    for (const ModelCase& c : long_chains()) out.push_back(c);
-    return out;
-  }();
-  for (const ModelCase& c : cases)
-    if (c.name == name) return c;
+  for (auto* list : {&built_once<project_tree_models>, &built_once<external_models>, &built_once<random_trees>,
+                     &built_once<loop_models>, &built_once<long_chains>})
+    for (const ModelCase& c : list())
+      if (c.name == name) return c;
   throw std::runtime_error("no model case " + name);
 }
 

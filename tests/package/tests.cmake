@@ -18,8 +18,12 @@ add_test(NAME package.install_and_build_downstream
     "-DLIBDIR=${CMAKE_INSTALL_LIBDIR}"
     "-DINCLUDEDIR=${CMAKE_INSTALL_INCLUDEDIR}"
     -P "${CMAKE_CURRENT_LIST_DIR}/install_and_build_downstream.cmake")
+# COST: the longest tests of the suite (40-80 s, each building a project, the
+# FetchContent one with -j2), so ctest -j starts them first and the many short
+# tests fill the cores around them, instead of the two running alone at the
+# end (docs/testing.md).
 set_tests_properties(package.install_and_build_downstream PROPERTIES
-  TIMEOUT 900 LABELS package)
+  TIMEOUT 900 LABELS package COST 1000)
 
 # jrgen pulled into a project's own build (tests/package/subproject): with
 # FetchContent, built and run (Debug: the quickest full compile of jrgen);
@@ -43,6 +47,9 @@ foreach(_mode fetchcontent subdirectory)
       "-DLAUNCHER=${CMAKE_CXX_COMPILER_LAUNCHER}"
       -P "${CMAKE_CURRENT_LIST_DIR}/subproject_test.cmake")
   set_tests_properties(package.subproject_${_mode} PROPERTIES TIMEOUT 900 LABELS package)
+  if(_build)
+    set_tests_properties(package.subproject_${_mode} PROPERTIES COST 2000)  # first (see above)
+  endif()
 endforeach()
 
 # add_jr_solver() / add_jr_simulator() called wrongly: the configure stops with
