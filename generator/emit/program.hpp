@@ -119,7 +119,12 @@ class Program {
   /// Operation counts per block of the live nodes, without emitting.
   std::vector<std::pair<std::string, OpCount>> count() const;
 
-  std::size_t max_statements = 4000;
+  /// Statements per emitted function.  Each split stores and reloads the
+  /// values that cross it (the HMMWV's terms at 4000: 500 of 6500
+  /// statements); one function is faster (docs/benchmarks.md, run 17: the
+  /// HMMWV's call 3 % and iCub's 14 % at 16 000), but GCC's compile time
+  /// grows faster than linearly above that (talos at 40 000: 2.6x).
+  std::size_t max_statements = 16000;
   /// false: x * 0, x * 1, x + 0 and the like stay operations (constants
   /// meet only constants at generation time), so count() gives what the same
   /// program costs without specialization's folding (--report's "before").
