@@ -1,8 +1,10 @@
 #include "emit/terms.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 
 #include "emit/articulated_terms.hpp"
@@ -165,25 +167,40 @@ std::string size_text(const Built& b) {
   return b.definitions.empty() ? "too many statements" : fmt::format("{} statements", b.emitted.statements);
 }
 
-const char* const kCheckArticulated =
-    "// Status 1 when a pivot D_j is not positive (M not positive definite) or the\n"
-    "// pivots' spread d_min / d_max is below kSpreadLimit (M singular to working\n"
-    "// precision: Step 1's digits test on the same pivots); 3 for a non-finite qdd.\n"
-    "int check_articulated(const double* D, const double* qdd) {\n"
-    "  for (std::int32_t j = 0; j < nv; ++j)\n"
-    "    if (!(D[j] > 0.0)) return not_positive_definite(j, D[j]);\n"
-    "  double ratio = 0.0;\n"
-    "  const std::int32_t j = jr::pivot_spread(D, nv, false, 1, kSpreadLimit, &ratio);\n"
-    "  if (j >= 0)\n"
-    "    return fail(kMassNotPositiveDefinite,\n"
-    "                \"mass matrix singular to working precision (smallest pivot below 1e-13 of the largest)\",\n"
-    "                kDofUser[j], ratio);\n"
-    "  if (jr::any_non_finite(qdd, nv))\n"
-    "    for (std::int32_t i = 0; i < nv; ++i)\n"
-    "      if (!std::isfinite(qdd[i])) return fail(kNonFinite, \"non-finite acceleration\", i, qdd[i]);\n"
-    "  g_error[0] = '\\0';\n"
-    "  return kSuccess;\n"
-    "}\n";
+// check_articulated(), with the table it tests the pivots against: an upper
+// bound of each M_jj over all configurations (topology::mass_diagonal_bounds;
+// 0 where there is none, a joint below translating: then only D_j > 0).
+std::string check_articulated(const topology::Tree& t) {
+  std::vector<double> bounds = topology::mass_diagonal_bounds(t);
+  for (double& b : bounds)
+    if (std::isinf(b)) b = 0.0;
+  return fmt::format(
+      "// Upper bounds of M's diagonal entries over all configurations, Lemma 2 order\n"
+      "// (0: none): a pivot D_j must exceed kMassPivotTolerance times its entry, as\n"
+      "// in Step 1, where M_jj itself is at hand (docs/status.md).\n"
+      "constexpr double kMassDiagonalBound[{}] = {{ {} }};\n"
+      "// Status 1 when a pivot D_j is not above kMassPivotTolerance * kMassDiagonalBound[j]\n"
+      "// (M not positive definite, or fewer than 6 digits left) or the pivots' spread\n"
+      "// d_min / d_max is below kSpreadLimit (Step 1's digits test on the same pivots);\n"
+      "// 3 for a non-finite qdd.\n"
+      "int check_articulated(const double* D, const double* qdd) {{\n"
+      "  for (std::int32_t j = 0; j < nv; ++j)\n"
+      "    if (!(D[j] > 0.0) || !(D[j] > kMassPivotTolerance * kMassDiagonalBound[j]))\n"
+      "      return not_positive_definite(j, D[j]);\n"
+      "  double ratio = 0.0;\n"
+      "  const std::int32_t j = jr::pivot_spread(D, nv, false, 1, kSpreadLimit, &ratio);\n"
+      "  if (j >= 0)\n"
+      "    return fail(kMassNotPositiveDefinite,\n"
+      "                \"mass matrix singular to working precision (smallest pivot below 1e-13 of the largest)\",\n"
+      "                kDofUser[j], ratio);\n"
+      "  if (jr::any_non_finite(qdd, nv))\n"
+      "    for (std::int32_t i = 0; i < nv; ++i)\n"
+      "      if (!std::isfinite(qdd[i])) return fail(kNonFinite, \"non-finite acceleration\", i, qdd[i]);\n"
+      "  g_error[0] = '\\0';\n"
+      "  return kSuccess;\n"
+      "}}\n",
+      t.nv, fmt::join(bounds, ", "));
+}
 
 const char* const kCheckClosed =
     "// Status of jr::articulated_closed (k: -1, a dof of M, or nv + a row of W), then\n"
@@ -206,7 +223,7 @@ const char* const kCheckClosed =
     "  return kSuccess;\n"
     "}\n";
 
-TermsBlock articulated_block(const Built& b) {
+TermsBlock articulated_block(const Built& b, const topology::Tree& t) {
   TermsBlock block;
   block.route = TermsRoute::kArticulated;
   block.ops = b.emitted.block_ops;
@@ -217,7 +234,7 @@ TermsBlock articulated_block(const Built& b) {
       "// are those of Step 1's leaves-first L D L^T of M (eliminating a leaf dof leaves\n"
       "// the parent's articulated inertia as Schur complement: Featherstone 2008,\n"
       "// Sec. 6.5), so Step 1's tests apply to them (check_articulated).\n" +
-      b.definitions + "\n" + kCheckArticulated;
+      b.definitions + "\n" + check_articulated(t);
   block.fd_body =
       "  // Specialized kinematics and articulated-body algorithm: qdd in user order,\n"
       "  // the pivots D in g_Dinv (Lemma 2 order).\n"
@@ -299,7 +316,7 @@ TermsBlock runtime_block(const topology::Tree& t, const Options& options, long l
   block.definitions = fmt::format(
       "// ---- forward_dynamics: the runtime's articulated-body algorithm, O(n) ----\n"
       "thread_local jr::ArticulatedState g_articulated[{}];\n{}\n{}",
-      t.bodies.size(), runtime_tau_workspace(t), kCheckArticulated);
+      t.bodies.size(), runtime_tau_workspace(t), check_articulated(t));
   std::string tau;
   const std::string forces = runtime_forces_tau(t, tau);
   block.fd_body = fmt::format(
@@ -348,7 +365,7 @@ TermsBlock tree_terms(const topology::Tree& t, const Options& options, long long
     if (std::string(env) == "articulated" && aba_fits) articulated = true;
     if (std::string(env) == "composite" && crb_fits) articulated = false;
   }
-  TermsBlock block = articulated ? articulated_block(aba) : composite_block(crb);
+  TermsBlock block = articulated ? articulated_block(aba, t) : composite_block(crb);
   block.unfolded_ops = (articulated ? articulated_program(t, options, false) : composite_program(t, options, false))
                            .emitted.block_ops;
   block.summary = fmt::format(
@@ -431,7 +448,7 @@ TermsBlock loop_terms(const topology::Tree& t, const Options& options, long long
         "// qdd = a0 - Y lambda: O(n nc), no M formed.\n"
         "thread_local jr::ArticulatedState g_articulated[{}];\n"
         "thread_local double g_closed_scratch[{}];\n{}\n{}\n{}",
-        t.bodies.size(), nc * (t.nv + nc), runtime_tau_workspace(t), kCheckArticulated, kCheckClosed);
+        t.bodies.size(), nc * (t.nv + nc), runtime_tau_workspace(t), check_articulated(t), kCheckClosed);
     std::string tau;
     const std::string forces = runtime_forces_tau(t, tau);
     block.fd_body = fmt::format(

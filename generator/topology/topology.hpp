@@ -171,6 +171,14 @@ Tree build_tree(const ir::Robot& robot, const MassBounds& bounds = {});
 /// joints are fused, or when a placed point overflows.
 void place_force_elements(const ir::Robot& robot, Tree& tree);
 
+/// For every dof (Lemma 2 order), an upper bound of M's diagonal entry M_jj
+/// over all configurations: the subtree's mass for a translation, and for a
+/// rotation the sum over the subtree of m_b r_b^2 + trace(I_b), r_b bounded by
+/// the joint offsets on the path (infinity when a joint below the dof
+/// translates: no such bound).  The articulated-body routes, which form no
+/// M, test their pivots against it (docs/status.md).
+std::vector<double> mass_diagonal_bounds(const Tree& tree);
+
 /// The precondition the generated factorization relies on (STYLE.md section 5,
 /// as Pinocchio's CRBA checker): parent after child, dof chains consistent,
 /// packed layout complete.  Throws std::logic_error when violated.

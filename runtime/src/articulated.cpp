@@ -351,7 +351,7 @@ void solve_w(const double* L, std::int32_t n, const double* d, double* x) {
     for (std::int32_t i = j + 1; i < n; ++i) x[j] -= L[i + n * j] * x[i];
 }
 
-constexpr double kWPivotTolerance = 1e-14;  // Step 3's kPivotTolerance (templates/solver.cpp.tmpl)
+constexpr double kWPivotTolerance = 1e-9;  // Step 3's kPivotTolerance (templates/solver.cpp.tmpl)
 
 }  // namespace
 

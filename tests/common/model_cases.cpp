@@ -130,6 +130,21 @@ std::vector<ModelCase> external_models() {
   return out;
 }
 
+std::vector<ModelCase> fixed_base_robots() {
+  const fs::path p = fs::path(JRGEN_SOURCE_DIR) / ".." / "shared" / "models-external" / "icub.urdf";
+  return {{"fixed_icub", without_mimic(read_text(p.string()))}};
+}
+
+std::vector<ModelCase> extreme_in_time() {
+  std::vector<ModelCase> out;
+  for (const fs::path& p : sorted_urdfs(fs::path(JRGEN_SOURCE_DIR) / "tests" / "simulate" / "extreme")) {
+    std::string text = read_text(p.string());
+    const bool loops = text.find("<loop_joint") != std::string::npos;
+    out.push_back({(loops ? "loops_xt_" : "xt_") + p.stem().string(), std::move(text)});
+  }
+  return out;
+}
+
 std::vector<ModelCase> random_trees() {
   std::vector<ModelCase> out;
   const int sizes[] = {1, 2, 3, 5, 8, 13, 30, 60, 120, 250, 500};
@@ -367,7 +382,8 @@ const std::vector<ModelCase>& built_once() {
 // processes about 0.2 s of CPU (docs/testing.md, "CI time").
 const ModelCase& find_model_case(const std::string& name) {
   for (auto* list : {&built_once<project_tree_models>, &built_once<external_models>, &built_once<random_trees>,
-                     &built_once<loop_models>, &built_once<long_chains>})
+                     &built_once<loop_models>, &built_once<long_chains>,
+                     &built_once<fixed_base_robots>, &built_once<extreme_in_time>})
     for (const ModelCase& c : list())
       if (c.name == name) return c;
   throw std::runtime_error("no model case " + name);

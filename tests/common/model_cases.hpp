@@ -40,7 +40,17 @@ std::vector<ModelCase> all_models();
 /// is O(n^3) and the rope's only assembled state here is its singular one.
 std::vector<ModelCase> long_chains();
 
-/// The case of all_models() or long_chains() with this name; throws
+/// ../shared/models-external/icub.urdf as written (fixed base; as new users
+/// try it), "fixed_icub": singular at its zero state (tests/generated/digits_test.cpp);
+/// in no list above.
+std::vector<ModelCase> fixed_base_robots();
+
+/// The models of the extreme cases in time (tests/simulate/extreme/*.urdf:
+/// mass ratios to 1e15, stiff springs, a near-toggle and a parallelogram
+/// loop), "xt_<stem>" (trees) or "loops_xt_<stem>"; in no list above.
+std::vector<ModelCase> extreme_in_time();
+
+/// The case of all_models(), long_chains(), fixed_base_robots() or extreme_in_time() with this name; throws
 /// std::runtime_error.
 const ModelCase& find_model_case(const std::string& name);
 

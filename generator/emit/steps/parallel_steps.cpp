@@ -83,14 +83,14 @@ std::string step1_text(const topology::Tree& t, const Plan& plan, const Parallel
       "  for (std::int32_t w = 0; w < kNumTasks; ++w) {{\n"
       "    failed[w] = -1;\n"
       "    for (std::int32_t i = kTaskStart[w]; i < kTaskStart[w + 1] && failed[w] < 0; ++i)\n"
-      "      failed[w] = jr::factor_subtree(kModel, kSubtrees[i], L, Dinv, {}, kPivotTolerance, &pivots[w],\n"
+      "      failed[w] = jr::factor_subtree(kModel, kSubtrees[i], L, Dinv, {}, kMassPivotTolerance, &pivots[w],\n"
       "                                     U + kSubtrees[i].buffer);\n"
       "  }}\n"
       "  for (std::int32_t w = 0; w < kNumTasks; ++w)\n"
       "    if (failed[w] >= 0) return not_positive_definite(failed[w], pivots[w]);\n"
       "  for (std::int32_t i = 0; i < {}; ++i) jr::apply_subtree_update(kModel, kSubtrees[i], U + kSubtrees[i].buffer, L);\n"
       "  double pivot = 0.0;\n"
-      "  const std::int32_t j = jr::factor_separator(kModel, kSubtrees, {}, L, Dinv, {}, kPivotTolerance, &pivot);\n"
+      "  const std::int32_t j = jr::factor_separator(kModel, kSubtrees, {}, L, Dinv, {}, kMassPivotTolerance, &pivot);\n"
       "  return j < 0 ? 0 : not_positive_definite(j, pivot);\n"
       "}}",
       par.ldlt ? "M = L D L^T" : "M = L L^T",

@@ -4,8 +4,8 @@
 
 namespace jrgen::emit {
 
-std::string pivot_test(const std::string& base, const std::string& fail) {
-  return fmt::format("if (!(d > kPivotTolerance * {})) return {};", base, fail);
+std::string pivot_test(const std::string& base, const std::string& fail, const std::string& tolerance) {
+  return fmt::format("if (!(d > {} * {})) return {};", tolerance, base, fail);
 }
 
 // --divide keeps W = L D instead of L (eq. 26 without the division): an entry
@@ -25,7 +25,7 @@ std::vector<std::string> ldlt_pivot(Kernel& k, Kernel::Unit& u, const LdltPivot&
     names.push_back(name);
   }
   k.update(u, in, "d", c.base, dterms, "", "const double ", "sd");
-  u.lines.push_back(in + pivot_test(c.base, c.fail));
+  u.lines.push_back(in + pivot_test(c.base, c.fail, c.tolerance));
   u.lines.push_back(in + c.diag + " = d;");
   u.statements += 2;
   if (c.reciprocal) {

@@ -10,9 +10,10 @@
 
 namespace jrgen::emit {
 
-/// "if (!(d > kPivotTolerance * base)) return fail;": the pivot d of a
-/// column against the tolerance relative to its original diagonal entry.
-std::string pivot_test(const std::string& base, const std::string& fail);
+/// "if (!(d > tolerance * base)) return fail;": the pivot d of a column
+/// against the tolerance relative to its original diagonal entry:
+/// kMassPivotTolerance for M (Step 1), kPivotTolerance for T^T T (Step 3.4).
+std::string pivot_test(const std::string& base, const std::string& fail, const std::string& tolerance);
 
 /// Column j's diagonal of L D L^T (no square roots), and of its unscaled
 /// form with --divide.
@@ -25,6 +26,7 @@ struct LdltPivot {
   std::string inverse;               ///< "Dinv[j]", "Winv[j]": 1 / d ...
   bool reciprocal = true;            ///< ... or, when false, d itself ...
   std::string check;                 ///< ... for this digits test
+  std::string tolerance;             ///< kMassPivotTolerance (M) or kPivotTolerance (T^T T)
 };
 
 /// Writes into `u`

@@ -92,7 +92,7 @@ void column_llt(Kernel& k, Kernel::Unit& u, const Column& c, bool divide, bool w
     factor.push_back(L(t, j, i));
   }
   k.update(u, in, "d", c.M(j, j), sq, "", "const double ", "sd");
-  u.lines.push_back(in + pivot_test(c.M(j, j), fmt::format("not_positive_definite({}, d)", j)));
+  u.lines.push_back(in + pivot_test(c.M(j, j), fmt::format("not_positive_definite({}, d)", j), "kMassPivotTolerance"));
   // 1 / L[j,j] = sqrt(d) * (1 / d): the square root and the division run
   // side by side, not one after the other, on the chain from this pivot to
   // the next column (one more multiplication per column;
@@ -137,6 +137,7 @@ void column_ldlt(Kernel& k, Kernel::Unit& u, const Column& c, bool divide, bool 
   pivot.inverse = fmt::format("Dinv[{}]", j);
   pivot.reciprocal = write_dinv;
   pivot.check = "check_digits_M";
+  pivot.tolerance = "kMassPivotTolerance";
   const std::vector<std::string> factor = ldlt_pivot(k, u, pivot, divide);
   column_rows(k, u, c, factor, divide ? Scale() : Scale(fmt::format("Dinv[{}]", j)));
 }

@@ -81,7 +81,7 @@ void column_llt(const Step3Layout& lay, int j, Kernel& k, Kernel::Unit& u) {
   std::vector<Term> sq;
   for (int i : sp.row_list[j]) sq.push_back({lay.W(j, i), lay.W(j, i)});
   k.update(u, in, "d", diag, sq, "", "const double ", "sd");
-  u.lines.push_back(in + pivot_test(diag, fmt::format("constraints_singular({}, d)", sp.order[j])));
+  u.lines.push_back(in + pivot_test(diag, fmt::format("constraints_singular({}, d)", sp.order[j]), "kPivotTolerance"));
   u.lines.push_back(in + diag + " = std::sqrt(d);");
   u.statements += 2;
   k.ops.sqrt += 1;
@@ -116,6 +116,7 @@ void column_ldlt(const Step3Layout& lay, int j, Kernel& k, Kernel::Unit& u) {
   pivot.inverse = fmt::format("Winv[{}]", j);
   pivot.reciprocal = !lay.divide;
   pivot.check = "check_digits_W";
+  pivot.tolerance = "kPivotTolerance";
   const std::vector<std::string> names = ldlt_pivot(k, u, pivot, unscaled);
   std::map<int, std::string> w;  // left column -> its factor
   for (std::size_t n = 0; n < names.size(); ++n) w[sp.row_list[j][n]] = names[n];

@@ -40,7 +40,7 @@ void supernodal_steps(const topology::Tree& t, const Plan& plan, Steps124& s) {
   s.step1 += call_function(
       "", "int step1_factor(double* L, double* Dinv)",
       {"double pivot = 0.0;", "const std::int32_t j =",
-       fmt::format("    jr::factor_supernodal(kModel, kSupernodes, {}, L, g_S, Dinv, kPivotTolerance, &pivot);", n),
+       fmt::format("    jr::factor_supernodal(kModel, kSupernodes, {}, L, g_S, Dinv, kMassPivotTolerance, &pivot);", n),
        "return j < 0 ? 0 : not_positive_definite(j, pivot);"});
   s.step2 = call_function(
       "---- Step 2: solve L z = Q (forward substitution), Remark 2, supernodal. ----\n" + ops_text(s.ops2, true),

@@ -82,7 +82,7 @@ void table_steps(const topology::Tree& t, const Plan& plan, Steps124& s) {
                   factor_note(plan), why, ops_text(s.ops1, true)),
       "int step1_factor(double* L, double* Dinv)",
       {"double pivot = 0.0;",
-       fmt::format("const std::int32_t j = jr::factor_packed(kModel, L, Dinv, {}, kPivotTolerance, &pivot);", flag),
+       fmt::format("const std::int32_t j = jr::factor_packed(kModel, L, Dinv, {}, kMassPivotTolerance, &pivot);", flag),
        "return j < 0 ? 0 : not_positive_definite(j, pivot);"});
   s.step2 = packed_rows_tables(t) + "\n\n" +
             call_function("---- Step 2: solve L z = Q (forward substitution), Remark 2, table-driven. ----\n"

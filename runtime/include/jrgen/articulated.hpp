@@ -115,7 +115,7 @@ void inverse_dynamics(const Model& model, BodyState* bodies, const double* v, co
 ///
 /// Returns -1 on success.  0 <= k < nv: M's pivot of Lemma 2 dof k failed, as
 /// articulated_dynamics() (nothing else written).  nv + r: W's pivot of row r
-/// (Phi order) was not above 1e-14 * W[r, r] (Step 3's kPivotTolerance, so
+/// (Phi order) was not above 1e-9 * W[r, r] (Step 3's kPivotTolerance, so
 /// also when <= 0 or NaN): the rows are dependent to working precision; the
 /// pivot is in W_pivots[r], qdd_lem holds a0 and lambda is not the solution.
 /// On success the digits test of Step 3.4 applies to W's pivots as to those
