@@ -17,7 +17,9 @@
 //                       with the rows the runtime keeps;
 //   GeneratedDroppedRows.*  every closed-loop solver of the test registry with
 //                       the rows it computes (constraint_jacobian), and its
-//                       forward_dynamics against the full, unreduced system.
+//                       forward_dynamics against the full, unreduced system;
+//   DroppedRowsSelfCheck.*  the checks below fail on a four-bar with one row
+//                       dropped wrongly.
 //
 // At several assembled configurations (the ones jrgen used, and others
 // reached by moving along the constraint manifold and closing the loops
@@ -49,6 +51,7 @@
 // translations divided by / multiplied by its length scale L, the largest
 // offset between neighbouring frames): a mechanism drawn in millimetres then
 // has the same singular values as in metres (tests/assembly/fourbar_stretched_mm).
+#include <gtest/gtest-spi.h>
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
@@ -464,15 +467,11 @@ std::vector<testing::ModelCase> cases() {
 
 class DroppedRows : public ::testing::TestWithParam<testing::ModelCase> {};
 
-TEST_P(DroppedRows, AreCombinationsOfKeptRowsInExtendedPrecision) {
-  const ir::Robot robot = testing::read_model_case(GetParam());
-  topology::Tree tree = topology::build_tree(robot);
-  const analysis::ConstraintAnalysis a = analysis::analyze_constraints(robot, tree, false);
-  analysis::RuntimeModel rt(tree, Vector3d::Zero());
-  const Units u = units(robot);
+// The rows the runtime keeps for `tree` (its cuts' kept_rows), at q.
+KeptRows runtime_rows(const ir::Robot& robot, const topology::Tree& tree, const Units& u, analysis::RuntimeModel& rt) {
   KeptRows k;
   describe_kept(robot, tree, u, k);
-  k.eval = [&](const VectorXd& q, VectorXd& phi, MatrixXd& Phiq) {
+  k.eval = [&rt](const VectorXd& q, VectorXd& phi, MatrixXd& Phiq) {
     const jr::ConstraintModel& cm = rt.constraints();
     VectorXd packed = VectorXd::Zero(cm.phiq_nnz);
     jr::kinematics(rt.model(), rt.workspace(), q.data());
@@ -480,10 +479,57 @@ TEST_P(DroppedRows, AreCombinationsOfKeptRowsInExtendedPrecision) {
                          nullptr);
     jr::unpack_constraint_jacobian(rt.model(), cm, packed.data(), Phiq.data());
   };
+  return k;
+}
+
+TEST_P(DroppedRows, AreCombinationsOfKeptRowsInExtendedPrecision) {
+  const ir::Robot robot = testing::read_model_case(GetParam());
+  topology::Tree tree = topology::build_tree(robot);
+  const analysis::ConstraintAnalysis a = analysis::analyze_constraints(robot, tree, false);
+  analysis::RuntimeModel rt(tree, Vector3d::Zero());
+  const Units u = units(robot);
+  const KeptRows k = runtime_rows(robot, tree, u, rt);
   const std::vector<VectorXd> configs = assembled_configurations(robot, u, k, a.configurations, 3, 5);
   Measured m;
   check_configurations(robot, u, k, configs, GetParam().name, GetParam().name, m);
   print(GetParam().name, m);
+}
+
+// The checks can fail: the four-bar (models/fourbar.urdf) with one row more
+// dropped than jrgen drops, its cut's point y (kept: point x alone).  At
+// jrgen's assembly the rank of Phiq_full (2) is not the new nc (1) and point y
+// is no combination of point x; moved along the manifold and closed again by
+// point x alone, the four-bar opens: point y no longer vanishes.
+TEST(DroppedRowsSelfCheck, ARowDroppedWronglyFailsTheChecks) {
+  const ir::Robot robot = testing::read_model_case(testing::find_model_case("loops_fourbar"));
+  topology::Tree tree = topology::build_tree(robot);
+  const analysis::ConstraintAnalysis a = analysis::analyze_constraints(robot, tree, false);
+  ASSERT_EQ(tree.cuts.size(), 1u);
+  ASSERT_EQ(tree.cuts[0].kept_rows, std::vector<int>({0, 1}));
+  tree.cuts[0].kept_rows = {0};
+  analysis::RuntimeModel rt(tree, Vector3d::Zero());
+  const Units u = units(robot);
+  const KeptRows k = runtime_rows(robot, tree, u, rt);
+  ::testing::TestPartResultArray failures;
+  {
+    ::testing::ScopedFakeTestPartResultReporter intercept(
+        ::testing::ScopedFakeTestPartResultReporter::INTERCEPT_ONLY_CURRENT_THREAD, &failures);
+    const std::vector<VectorXd> configs = assembled_configurations(robot, u, k, {a.configurations.front()}, 1, 5);
+    Measured m;
+    for (std::size_t i = 0; i < configs.size(); ++i)
+      check_assembled(robot, u, k, configs[i], k.nc, "configuration " + std::to_string(i), m);
+  }
+  auto seen = [&](const std::string& what) {
+    for (int i = 0; i < failures.size(); ++i)
+      if (failures.GetTestPartResult(i).message() && std::string(failures.GetTestPartResult(i).message()).find(what) !=
+                                                         std::string::npos)
+        return true;
+    return false;
+  };
+  EXPECT_TRUE(seen("configuration 0: rank of Phiq_full"));
+  EXPECT_TRUE(seen("configuration 0: rank of the kept rows"));
+  EXPECT_TRUE(seen("configuration 0: cut 'joint_D' (revolute) row 2 (point y) is not a combination of the kept rows"));
+  EXPECT_TRUE(seen("configuration 1: Phi~ of cut 'joint_D' (revolute) row 2 (point y)"));
 }
 
 INSTANTIATE_TEST_SUITE_P(LoopModels, DroppedRows, ::testing::ValuesIn(cases()),
@@ -567,7 +613,7 @@ TEST_P(GeneratedDroppedRows, RowsAndForwardDynamicsMatchTheFullSystem) {
     const Rows at_q = reference_rows(robot, u, q, VectorXd());
     const MatrixXd N = null_space(scaled(at_q.Phiq, at_q.scale, u), s.nc);
     const VectorXd v = u.col.asDiagonal() * (N * (N.transpose() * reference::random_velocity(robot, rng)));
-    const VectorXd tau = VectorXd::Random(s.nv);
+    const VectorXd tau = reference::random_velocity(robot, rng);  // uniform in [-1, 1] (N, N m)
     VectorXd qdd(s.nv), lambda(s.nc);
     ASSERT_EQ(s.forward_dynamics(q.data(), v.data(), tau.data(), qdd.data(), lambda.data()), 0) << s.last_error();
     MatrixXd Phiq(s.nc, s.nv);
@@ -581,8 +627,9 @@ TEST_P(GeneratedDroppedRows, RowsAndForwardDynamicsMatchTheFullSystem) {
     // rounding of the inputs each side computed (M, h, gamma: sums over the
     // tree with cancellations), both amplified by the condition number of the
     // solver's reduced augmented matrix: n eps cond.  Measured: at most
-    // 2.0 n eps cond (gen_loops_random_4_seed1, cond 88); 100 leaves a margin of
-    // 50.  The full system's least-squares residual (gamma of the dropped rows
+    // 2.1 n eps cond (gen_loops_random_4_seed1, cond 88, a mechanism with no
+    // freedom: qdd = 0, the solver's 5e-13 the rounding of M^-1 (Q - Phiq^T
+    // lambda), |Q| ~ 5), 0.3 n eps cond elsewhere; 100 leaves a margin of ~50.  The full system's least-squares residual (gamma of the dropped rows
     // consistent with the kept ones) is measured at most 3.5e-18.
     const double tol = 100.0 * (s.nv + s.nc) * kEps * cond;
     const std::string where = s.target + ", configuration " + std::to_string(i);
