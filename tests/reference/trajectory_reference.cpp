@@ -590,7 +590,7 @@ int main(int argc, char** argv) {
     }
     if (argc < 4) {
       std::fprintf(stderr,
-                   "usage: trajectory_reference CASE -o FILE [--commit TEXT]\n"
+                   "usage: trajectory_reference CASE -o FILE [--commit TEXT] [--rtol R] [--method adams|bdf] [--t-end T]\n"
                    "       trajectory_reference CASE --reproduce FILE --rows K\n"
                    "       trajectory_reference --list\n");
       return 2;
@@ -608,9 +608,11 @@ int main(int argc, char** argv) {
       else if (a == "--rows") rows = std::stoi(argv[i + 1]);
       else if (a == "--rtol") kRtol = std::stod(argv[i + 1]), kCheckRtol = 10 * kRtol;
       else if (a == "--method") it->stiff = std::string(argv[i + 1]) == "bdf";
+      else if (a == "--t-end") it->t_end = std::stod(argv[i + 1]);
       else throw std::runtime_error("unknown option " + a);
     }
     if (!repro.empty()) return reproduce(*it, source_dir, repro, rows);
+    if (out.empty()) throw std::runtime_error("no -o FILE");
     write(*it, source_dir, out, commit);
     return 0;
   } catch (const std::exception& e) {
