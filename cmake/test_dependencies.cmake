@@ -22,6 +22,11 @@ foreach(_lib mujoco:libmujoco-dev umfpack:libsuitesparse-dev lapacke:liblapacke-
     list(APPEND JRGEN_TEST_DEPENDENCIES_MISSING "${_name} (${_package})")
   endif()
 endforeach()
+# SUNDIALS CVODE: the independent reference trajectories (tests/reference/trajectories.cmake).
+find_package(SUNDIALS QUIET CONFIG)
+if(NOT SUNDIALS_FOUND)
+  list(APPEND JRGEN_TEST_DEPENDENCIES_MISSING "SUNDIALS (libsundials-dev)")
+endif()
 find_package(Python3 QUIET COMPONENTS Interpreter)
 if(NOT Python3_Interpreter_FOUND)
   list(APPEND JRGEN_TEST_DEPENDENCIES_MISSING "Python 3 (python3)")

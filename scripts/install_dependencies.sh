@@ -56,6 +56,7 @@ demo_packages=(build-essential cmake libeigen3-dev liburdfdom-dev libtinyxml-dev
 test_packages=(libgtest-dev libbenchmark-dev
                liblapacke-dev libopenblas-dev libsuitesparse-dev libmujoco-dev gnuplot-nox python3
                clang-14 libclang-rt-14-dev
+               libsundials-dev  # CVODE: the independent reference trajectories (tests/reference/trajectory_reference.cpp)
                graphviz  # jrgen --graph OUT.svg renders with dot (tests/generator/graph_test.cpp)
                openmpi-bin libopenmpi-dev)  # examples/batch_mpi and its test (optional in CMake)
 packages=("${demo_packages[@]}")

@@ -24,6 +24,7 @@
 #include "published_a04.hpp"
 #include "published_a05.hpp"
 #include "published_andrews.hpp"
+#include "reference/reference_files.hpp"
 
 namespace {
 
@@ -433,8 +434,12 @@ TEST(IftommA02, FlatConfigurationIsSingular) {
 
 // The published run: from the figure with B0's x-velocity 1 m/s (th' = -1), 20 s, 400 output
 // steps of 0.05 s.  The parallelogram is the pendulum th'' = c sin th above (constant
-// inertia), so its exact B0 = (-sin th, cos th) comes from that scalar ODE integrated by
-// dopri5 at 1e-13 (against 1e-12: 5e-9 apart; B0's error is |2 sin((th - th_ref) / 2)|).
+// inertia), so its exact B0 = (-sin th, cos th) comes from that scalar ODE, integrated by
+// SUNDIALS CVODE at rtol = atol = 1e-14 (tests/published/reference/a02_reduced.tsv, made by
+// tests/reference/trajectory_reference.cpp; its header: 2.6e-9 from the same at 1e-13;
+// B0's error is |2 sin((th - th_ref) / 2)|).  a02_reduced_theta() below integrates the
+// same ODE with jrgen's dopri5 at a given tolerance: the error the method makes on the
+// reduced equation alone.
 // It turns over its top at ~1 rad/s and crosses the flat configuration (th = -pi/2 mod pi)
 // 20 times in 20 s; near the top the phase is sensitive (dopri5 at 1e-6 on this scalar ODE alone
 // ends 6e-3 off on B0).  A02 threshold "1e-1 / 1e-3": the low and the high precision.
@@ -454,6 +459,14 @@ double a02_reduced_theta(double tol, std::vector<double>* out) {
   s.every = 0.05;
   jrgen::sim::integrate(p, 0.0, 20.0, y, s, [&](double, const double* yy) { out->push_back(yy[0]); });
   return y[0];
+}
+
+// th at the 401 rows (every 0.05 s) of the independent reference.
+std::vector<double> a02_reference_theta() {
+  const auto f = jrgen::reference::read_reference_file(JRGEN_SOURCE_DIR "/tests/published/reference/a02_reduced.tsv");
+  std::vector<double> th;
+  for (int k = 0; k <= 400; ++k) th.push_back(f.row_at(0.05 * k)[f.column("th")]);
+  return th;
 }
 
 struct A02Run {
@@ -500,8 +513,7 @@ A02Run a02_run(const jrgen::sim::System& sys, double tol, const std::vector<doub
 // fails, so the --singular proximal solver gives the same run bitwise, with no regularized
 // solve.
 TEST(IftommA02, PublishedRunThroughTheFlatConfiguration) {
-  std::vector<double> exact;
-  a02_reduced_theta(1e-13, &exact);
+  const std::vector<double> exact = a02_reference_theta();
   ASSERT_EQ(exact.size(), 401u);
   for (const auto& [tol, threshold] : {std::pair{1e-6, 1e-1}, std::pair{1e-7, 1e-3}}) {
     std::vector<double> reduced;
@@ -528,8 +540,7 @@ TEST(IftommA02, PublishedRunThroughTheFlatConfiguration) {
 // precision threshold or ends in a named failure naming a cut (B_i) or the loop's joints.
 // Never a silent wrong answer.
 TEST(IftommA02, TightToleranceIsRightOrANamedFailure) {
-  std::vector<double> exact;
-  a02_reduced_theta(1e-13, &exact);
+  const std::vector<double> exact = a02_reference_theta();
   for (const double tol : {1e-9, 1e-10}) {
     for (const jrgen::sim::System& sys : {JRGEN_SIM_SYSTEM(a02), JRGEN_SIM_SYSTEM(published_a02_proximal)}) {
       const A02Run r = a02_run(sys, tol, exact);
@@ -624,8 +635,8 @@ TEST(IftommA05, SizesAndStart) {
 }
 
 // The stiff governor in time (docs/simulation.md): from the published start, 1 s with the
-// default integrator and with dopri5 (explicit), both at rtol = atol = 1e-6, against auto at
-// 1e-10.  The springs (8e5 N/m) and dampers (4e4 N s/m) on bodies of 0.3-5 kg make it
+// default integrator and with dopri5 (explicit), both at rtol = atol = 1e-6, against the
+// independent reference s(1) (tests/published/reference/a05.tsv).  The springs (8e5 N/m) and dampers (4e4 N s/m) on bodies of 0.3-5 kg make it
 // stiff: the explicit method's step is bounded by stability, the implicit one's by accuracy.
 // Both must reach s(1) to 1e-4 m; the calls and times are printed (the goal, 10x
 // fewer forward-dynamics calls for the default integrator at the same accuracy, is the
@@ -645,7 +656,13 @@ TEST(IftommA05, StiffGovernorInTime) {
   };
   jrgen::sim::Stats st_ref, st_auto, st_dp;
   double c_ref, c_auto, c_dp;
-  const std::vector<double> y_ref = run("auto", 1e-10, st_ref, c_ref);
+  const std::vector<double> y_auto10 = run("auto", 1e-10, st_ref, c_ref);
+  // The reference s(1): the independent trajectory (SUNDIALS CVODE at 1e-14 on
+  // tests/reference/'s dynamics, tests/published/reference/a05.tsv).
+  const auto f = jrgen::reference::read_reference_file(JRGEN_SOURCE_DIR "/tests/published/reference/a05.tsv");
+  std::vector<double> y_ref(y_auto10.size());
+  y_ref[1] = f.row_at(1.0)[f.column("q1")];
+  EXPECT_NEAR(y_auto10[1], y_ref[1], 1e-8);  // auto at 1e-10, the reference before: within 100 tol
   const std::vector<double> y_auto = run("auto", 1e-6, st_auto, c_auto);
   const std::vector<double> y_dp = run("dopri5", 1e-6, st_dp, c_dp);
   const double e_auto = std::abs(y_auto[1] - y_ref[1]), e_dp = std::abs(y_dp[1] - y_ref[1]);

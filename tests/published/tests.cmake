@@ -28,6 +28,7 @@ target_compile_options(published_a02_proximal PRIVATE -Wall -Wextra -Wpedantic -
 
 jrgen_test(published_test published/published_test.cpp)
 target_link_libraries(published_test PRIVATE ${_pub_targets} published_a02_proximal Eigen3::Eigen)
+target_include_directories(published_test PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
 target_compile_definitions(published_test PRIVATE JRGEN_EXECUTABLE="$<TARGET_FILE:jrgen>")
 # Force elements (INTERFACE.md 2b) are in h once the generator has them; until then the
 # test passes the spring and the motor as tau.
@@ -44,6 +45,8 @@ endif()
 add_executable(published_work_precision published/work_precision.cpp)
 target_link_libraries(published_work_precision PRIVATE ${_pub_targets} published_a02_proximal jrgen_runtime)
 target_compile_options(published_work_precision PRIVATE -Wall -Wextra -Wpedantic -Wshadow -Werror)
+target_include_directories(published_work_precision PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
+target_compile_definitions(published_work_precision PRIVATE JRGEN_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
 add_test(NAME published_work_precision
          COMMAND published_work_precision --quick --check
                  -o ${CMAKE_CURRENT_BINARY_DIR}/published_work_precision_quick.tsv)

@@ -13,11 +13,14 @@
 //   A01: the exact solution, sin(theta/2) = k sn(K - sqrt(g/L) t, k), theta = q + pi/2,
 //        k = sin(pi/4) (the pendulum released horizontally; published_test's half period);
 //   A02: the parallelogram's one-pendulum equation th'' = c sin th (IftommA02.
-//        ParallelogramIsAPendulum) integrated by dopri5 at 1e-14 as a scalar ODE, checked
-//        against RK4 with 2e5 steps;
+//        ParallelogramIsAPendulum) as a scalar ODE: over the published 20 s, integrated by
+//        SUNDIALS CVODE at 1e-14 (tests/published/reference/a02_reduced.tsv); for --quick's
+//        span (not a row of that file) by jrgen's dopri5 at 1e-14, checked against RK4 with
+//        2e5 steps;
 //   A03: the Test Set for IVP Solvers' values at t = 0.03 (andrews_reference.hpp);
-//   A04, A05: the simulation layer itself at tol 1e-12 (dopri5 for A04, radau5 for A05),
-//        checked against the other method at 1e-12 (the difference is printed).
+//   A04, A05: SUNDIALS CVODE at 1e-14 on the independent dynamics of tests/reference/
+//        (tests/published/reference/a04.tsv, a05.tsv; trajectory_reference_test compares
+//        the simulation layer's tight runs with them over the whole span).
 #include <jrgen/simulate.hpp>
 
 #include <algorithm>
@@ -37,6 +40,7 @@
 #include "published_a04.hpp"
 #include "published_a05.hpp"
 #include "published_andrews.hpp"
+#include "reference/reference_files.hpp"
 
 namespace {
 
@@ -179,12 +183,22 @@ Problem a02_with(bool quick, const jrgen::sim::System& sys, const std::string& n
                 quick ? "0.95 x the first flat configuration" : "the published 20 s", t_flat);
   p.span_note = buf;
   double d;
-  const Vec th = a02_reference(p.t_end, &d);
+  Vec th = a02_reference(p.t_end, &d);
   Vec v(p.q0.size());
   p.q_ref.resize(p.q0.size());
+  if (!quick) {  // the published 20 s: the independent reference (SUNDIALS CVODE at 1e-14)
+    const auto f = jrgen::reference::read_reference_file(std::string(JRGEN_SOURCE_DIR) +
+                                                         "/tests/published/reference/a02_reduced.tsv");
+    const double th_file = f.row_at(p.t_end)[f.column("th")];
+    std::snprintf(buf, sizeof buf, "th'' = %.6f sin th by SUNDIALS CVODE at 1e-14 (tests/published/reference/"
+                  "a02_reduced.tsv; jrgen's dopri5 at 1e-14: %.1e apart), th(t_end) = %.6f", kA02c,
+                  std::abs(th_file - th[0]), th_file);
+    th[0] = th_file;
+  } else {
+    std::snprintf(buf, sizeof buf, "th'' = %.6f sin th by jrgen's dopri5 at 1e-14 (RK4, 2e5 steps: %.1e apart), "
+                  "th(t_end) = %.6f", kA02c, d, th[0]);
+  }
   a02_state(th[0], th[1], p.q_ref.data(), v.data());
-  std::snprintf(buf, sizeof buf, "th'' = %.6f sin th by dopri5 at 1e-14 (RK4, 2e5 steps: %.1e apart), th(t_end) = %.6f",
-                kA02c, d, th[0]);
   p.ref_note = buf;
   p.rk4_dt = {1e-2, 3e-3, 1e-3};
   p.defect = [](const double* y) {  // max |q_i -+ q_0|: 0 on the parallelogram
@@ -223,7 +237,6 @@ Problem a04(bool quick) {
   Problem p("A04", JRGEN_SIM_SYSTEM(published_a04), Vec(5, 0.0), Vec(5, 0.0));
   p.t_end = quick ? 2 : 10;
   p.span_note = quick ? "2 s" : "the published 10 s";
-  p.ref_note = "dopri5 at 1e-12";
   p.rk4_dt = {1e-2, 3e-3, 1e-3};
   return p;
 }
@@ -232,7 +245,6 @@ Problem a05(bool quick) {
   Problem p("A05", JRGEN_SIM_SYSTEM(published_a05), {0, 0.5, M_PI / 6, M_PI / 6}, {2 * M_PI, 0, 0, 0});
   p.t_end = quick ? 1 : 10;
   p.span_note = quick ? "1 s" : "the published 10 s";
-  p.ref_note = "radau5 at 1e-12";
   p.dampers = true;  // 4e4 N s/m: the energy balance includes the dissipated work
   p.rk4_dt = {2e-5, 1e-5};
   return p;
@@ -364,21 +376,16 @@ Row one_run(const Problem& p, const Mechanism& m, const Settings& s) {
   }
 }
 
-// A04, A05: the reference is the simulation layer at 1e-12; the other method at 1e-12
-// bounds its error (printed in ref_note).
-void self_reference(Problem& p, const Mechanism& m, const std::string& method, const std::string& other) {
-  Settings s;
-  s.rtol = s.atol = 1e-12;
-  s.method = method;
-  Vec y = m.initial_state(p.q0.data(), p.v0.data());
-  m.run(0, p.t_end, y, s);
-  p.q_ref.assign(y.begin(), y.begin() + p.sys.nq);
-  s.method = other;
-  Vec z = m.initial_state(p.q0.data(), p.v0.data());
-  m.run(0, p.t_end, z, s);
-  char buf[120];
-  std::snprintf(buf, sizeof buf, " (%s at 1e-12: %.1e apart)", other.c_str(), error_of(p, z.data()));
-  p.ref_note += buf;
+// A04, A05: the reference is the independent trajectory of tests/published/reference/
+// (SUNDIALS CVODE at rtol = atol = 1e-14 on the dynamics of tests/reference/, made by
+// tests/reference/trajectory_reference.cpp; docs/testing.md, "References"), its row at t_end.
+void file_reference(Problem& p, const std::string& file) {
+  const auto f = jrgen::reference::read_reference_file(std::string(JRGEN_SOURCE_DIR) + "/tests/published/reference/" +
+                                                       file);
+  const Vec& row = f.row_at(p.t_end);
+  p.q_ref.resize(p.sys.nq);
+  for (int i = 0; i < p.sys.nq; ++i) p.q_ref[i] = row[f.column("q" + std::to_string(i))];
+  p.ref_note = "SUNDIALS CVODE at 1e-14 on tests/reference/'s dynamics (tests/published/reference/" + file + ")";
 }
 
 const char* kHeader =
@@ -538,8 +545,8 @@ int main(int argc, char** argv) {
       Problem p = make(o.quick);
       if (!o.only.empty() && p.name != o.only) continue;
       const Mechanism m(p.sys);
-      if (p.name == "A04") self_reference(p, m, "dopri5", "radau5");
-      if (p.name == "A05") self_reference(p, m, "radau5", "dopri5");
+      if (p.name == "A04") file_reference(p, "a04.tsv");
+      if (p.name == "A05") file_reference(p, "a05.tsv");
       std::fprintf(stderr, "%s: t_end = %g s (%s); reference: %s\n", p.name.c_str(), p.t_end, p.span_note.c_str(),
                    p.ref_note.c_str());
       const std::vector<Row> rows = sweep(p, m, tols, o.quick, o.quick ? 5.0 : 20.0, out);

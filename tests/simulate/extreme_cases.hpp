@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "reference/reference_files.hpp"
 #include "sim_x_dp12.hpp"
 #include "sim_x_dp15.hpp"
 #include "sim_x_dp6.hpp"
@@ -39,10 +40,14 @@ struct Case {
   double t_end = 1.0;
   /// Scale of the q error: the error is max_i |q_i - q_ref,i| / q_scale.
   double q_scale = 1.0;
-  /// Exact q(t_end) when known (else empty: a reference run).
+  /// Exact q(t_end) when known (else empty: the reference file below).
   Vec q_exact;
-  /// Reference run: method and tolerance (a different method from the one
-  /// measured where it matters: the table says which).
+  /// Otherwise the independent reference trajectory (SUNDIALS CVODE on the
+  /// dynamics of tests/reference/; docs/testing.md, "References"):
+  /// tests/simulate/extreme/reference/<ref_file>.tsv, its row at t_end.
+  std::string ref_file;
+  /// The simulation layer's own tight run that was the reference before the
+  /// files (trajectory_reference_test compares it with the file).
   std::string ref_method = "dopri5";
   double ref_tol = 1e-13;
   /// A conserved quantity besides the energy (nullptr: none), and its scale.
@@ -113,24 +118,24 @@ inline Result measure(const Case& c, const std::string& method, double tol, cons
   return r;
 }
 
-/// q(t_end) of the case's reference run (empty when the case has an exact one).
+/// q(t_end) of the case's reference file (empty when the case has an exact
+/// solution).
 inline Vec reference(const Case& c) {
   if (!c.q_exact.empty()) return {};
-  const sim::Mechanism m(c.sys);
-  Vec y = m.initial_state(c.q0.data(), c.v0.data());
-  sim::Settings s;
-  s.method = c.ref_method;
-  s.rtol = s.atol = c.ref_tol;
-  m.run(0.0, c.t_end, y, s);
-  y.resize(c.sys.nq);
-  return y;
+  const reference::ReferenceFile f = reference::read_reference_file(
+      std::string(JRGEN_SOURCE_DIR) + "/tests/simulate/extreme/reference/" + c.ref_file + ".tsv");
+  const Vec& row = f.row_at(c.t_end);
+  Vec q(c.sys.nq);
+  for (int i = 0; i < c.sys.nq; ++i) q[i] = row[f.column("q" + std::to_string(i))];
+  return q;
 }
 
 // ---- the cases ---------------------------------------------------------------
 
-inline Case double_pendulum(const std::string& name, const sim::System& sys) {
+inline Case double_pendulum(const std::string& name, const sim::System& sys, const std::string& file) {
   Case c;
   c.name = name;
+  c.ref_file = file;
   c.sys = sys;
   c.q0 = {1.0, -0.5};
   c.v0 = {0.0, 0.0};
@@ -138,15 +143,15 @@ inline Case double_pendulum(const std::string& name, const sim::System& sys) {
   return c;
 }
 
-inline Case light_tip_1e6() { return double_pendulum("double pendulum, tip 1e-6 kg", JRGEN_SIM_SYSTEM(sim_x_dp6)); }
-inline Case light_tip_1e9() { return double_pendulum("double pendulum, tip 1e-9 kg", JRGEN_SIM_SYSTEM(sim_x_dp9)); }
+inline Case light_tip_1e6() { return double_pendulum("double pendulum, tip 1e-6 kg", JRGEN_SIM_SYSTEM(sim_x_dp6), "dp_light_tip_1e6"); }
+inline Case light_tip_1e9() { return double_pendulum("double pendulum, tip 1e-9 kg", JRGEN_SIM_SYSTEM(sim_x_dp9), "dp_light_tip_1e9"); }
 inline Case light_tip_1e12() {
-  return double_pendulum("double pendulum, tip 1e-12 kg", JRGEN_SIM_SYSTEM(sim_x_dp12));
+  return double_pendulum("double pendulum, tip 1e-12 kg", JRGEN_SIM_SYSTEM(sim_x_dp12), "dp_light_tip_1e12");
 }
-inline Case heavy_tip_1e9() { return double_pendulum("double pendulum, tip 1e9 kg", JRGEN_SIM_SYSTEM(sim_x_dph9)); }
-inline Case heavy_tip_1e6() { return double_pendulum("double pendulum, tip 1e6 kg", JRGEN_SIM_SYSTEM(sim_x_dph6)); }
+inline Case heavy_tip_1e9() { return double_pendulum("double pendulum, tip 1e9 kg", JRGEN_SIM_SYSTEM(sim_x_dph9), "dp_heavy_tip_1e9"); }
+inline Case heavy_tip_1e6() { return double_pendulum("double pendulum, tip 1e6 kg", JRGEN_SIM_SYSTEM(sim_x_dph6), "dp_heavy_tip_1e6"); }
 inline Case light_tip_1e15() {
-  return double_pendulum("double pendulum, tip 1e-15 kg", JRGEN_SIM_SYSTEM(sim_x_dp15));
+  return double_pendulum("double pendulum, tip 1e-15 kg", JRGEN_SIM_SYSTEM(sim_x_dp15), "dp_light_tip_1e15");
 }
 
 /// 1 kg on 1e9 N/m, x0 = 1 mm, 10 periods: x(t) = x0 cos(w t).
@@ -171,6 +176,7 @@ inline Case point_spring_1e9() {
   c.q0 = {-std::cos(0.5), std::sin(0.5), 0.0};  // (z, x, theta)
   c.v0 = {0.0, 0.0, 1.0};
   c.t_end = 2.0;
+  c.ref_file = "point_spring_1e9";
   c.ref_method = "radau5";  // dopri5 at 1e-13 takes 10^5 steps of the 3e4 1/s mode
   c.ref_tol = 1e-12;
   return c;
@@ -185,15 +191,16 @@ inline Case rope50(double angle = 1.0) {
   c.q0.assign(c.sys.nq, 0.0);
   c.q0[0] = angle;
   c.v0.assign(c.sys.nv, 0.0);
+  c.ref_file = angle == 1.0 ? "rope50" : "rope50_horizontal";
   c.t_end = 0.5;
   return c;
 }
 
 /// theta(t_end) of the parallelogram's reduced equation (5/3) theta'' =
-/// 2 g sin(theta) (parallelogram.urdf), by dopri5 at 1e-13 on that 2-state
-/// ODE: a reference that no generated solver and no change point enter
-/// (radau5 at 1e-13 agrees to 5e-11).  Another method and tolerance: the
-/// error that method makes on the reduced equation alone.
+/// 2 g sin(theta) (parallelogram.urdf) by jrgen's own integrators on that
+/// 2-state ODE: at a method's tolerance, the error that method makes on the
+/// reduced equation alone.  The reference theta (parallelogram() below) is
+/// the same equation integrated by SUNDIALS CVODE (reference files).
 inline double parallelogram_theta(double theta0, double w0, double t_end, const char* method = "dopri5",
                                   double tol = 1e-13) {
   sim::OdeProblem p;
@@ -224,7 +231,12 @@ inline Case parallelogram(bool proximal, bool flat = false) {
   c.q0 = {th, -th, th};
   c.v0 = {w, -w, w};
   c.t_end = 3.0;
-  const double te = parallelogram_theta(th, w, c.t_end);
+  // theta(t_end) of the reduced equation by SUNDIALS CVODE at 1e-14
+  // (tests/simulate/extreme/reference/parallelogram_reduced*.tsv).
+  const reference::ReferenceFile f = reference::read_reference_file(
+      std::string(JRGEN_SOURCE_DIR) + "/tests/simulate/extreme/reference/parallelogram_reduced" +
+      (flat ? "_flat" : "") + ".tsv");
+  const double te = f.row_at(c.t_end)[f.column("th")];
   c.q_exact = {te, -te, te};
   return c;
 }
@@ -238,6 +250,7 @@ inline Case near_toggle() {
   c.q0 = {0.3, -0.3, 0.3};
   c.v0 = {1.0, -1.0, 1.0};
   c.t_end = 3.0;
+  c.ref_file = "near_toggle";
   return c;
 }
 
@@ -264,6 +277,7 @@ inline Case top(double spin) {
   c.invariant = top_lz;
   c.invariant_scale = 0.004 * spin;  // |L| ~ C w3
   c.invariant_name = "L_z";
+  c.ref_file = "top_" + std::to_string(int(spin));
   return c;
 }
 

@@ -48,6 +48,7 @@ if(NOT JRGEN_TEST_SUBSET)
                  sim_x_parp sim_x_toggle sim_x_top)
   jrgen_test(simulate_extreme_test simulate/extreme_test.cpp)
   target_link_libraries(simulate_extreme_test PRIVATE jrgen_runtime ${_x_solvers})
+  target_include_directories(simulate_extreme_test PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
   # The simulator of a --singular proximal solver says when it used regularized answers.
   add_jr_simulator(TARGET parallelogram_prox_sim URDF ${_x}/parallelogram.urdf NAMESPACE parallelogram_prox_sim
                    OPTIONS --gravity 0,-9.81,0 --singular proximal)
@@ -56,6 +57,8 @@ if(NOT JRGEN_TEST_SUBSET)
                    -P ${CMAKE_CURRENT_SOURCE_DIR}/simulate/check_regularized_cli.cmake)
   add_executable(simulate_extreme_table EXCLUDE_FROM_ALL simulate/extreme_table.cpp)
   target_link_libraries(simulate_extreme_table PRIVATE jrgen_runtime ${_x_solvers})
+  target_include_directories(simulate_extreme_table PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
+  target_compile_definitions(simulate_extreme_table PRIVATE JRGEN_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
 endif()
 
 # ---- many runs (jrgen/batch.hpp; docs/simulation.md "Many runs: threads and MPI") ----
