@@ -821,6 +821,8 @@ int Mechanism::rhs(double t, const double* y, double* dydt, std::string& error) 
     }
     status = sys_.solve_augmented(w.M.data(), w.h.data(), w.Phiq.data(), w.gamma.data(), dydt + sys_.nq,
                                   w.lambda.data());
+  } else if (set_.singular_damping > 0.0 && sys_.nc > 0 && damped_solve(q, v, nullptr, false, dydt + sys_.nq)) {
+    return 0;  // (no generated solve ran: its last_solve_regularized() is not this one's)
   } else {
     status = sys_.forward_dynamics(q, v, w.tau.data(), dydt + sys_.nq, w.lambda.data());
   }
@@ -873,6 +875,44 @@ bool Mechanism::regularized_answer(int status) const {
   return status == 2 && sys_.last_solve_regularized && sys_.last_solve_regularized();
 }
 
+// MechanismSettings::singular_damping (docs/simulation.md, "A02 in time").  Near a
+// configuration where the rows of Phiq lose rank, the exact acceleration of a state a
+// rounding error off the branch is that of the neighbouring branch (the constraint force
+// along the vanishing direction is divided by W's vanishing eigenvalue s); damping the
+// components with s below tau s_max (Tikhonov) keeps that force out.  The damped force is
+// M-orthogonal to null(Phiq), so the acceleration along the admissible motion is unchanged.
+// With r: the projection's correction dv = -M^-1 Phiq^T W_damped^+ r.  Without: the
+// acceleration M^-1 (tau - h) - M^-1 Phiq^T W_damped^+ (Phiq M^-1 (tau - h) - gamma),
+// computed only when W's smallest eigenvalue is below 1e3 tau s_max (`always` false).
+bool Mechanism::damped_solve(const double* q, const double* v, const double* r, bool always, double* dv) const {
+  const int nv = sys_.nv, nc = sys_.nc;
+  Work& w = work(sys_);
+  sys_.mass_matrix(q, w.M.data());
+  sys_.constraint_jacobian(q, w.Phiq.data());
+  const Eigen::Map<const Eigen::MatrixXd> M(w.M.data(), nv, nv), Phiq(w.Phiq.data(), nc, nv);
+  const Eigen::LLT<Eigen::MatrixXd> llt(M);
+  const Eigen::MatrixXd Y = llt.solve(Phiq.transpose());
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(Phiq * Y);
+  const Eigen::VectorXd& s = es.eigenvalues();
+  const double tau = set_.singular_damping * s[nc - 1];
+  if (!always && !(s[0] < 1e3 * tau)) return false;
+  Eigen::VectorXd z(nc), a0 = Eigen::VectorXd::Zero(nv);
+  if (r) {
+    z = Eigen::Map<const Eigen::VectorXd>(r, nc);
+  } else {
+    sys_.bias_forces(q, v, w.h.data());
+    sys_.constraint_gamma(q, v, w.gamma.data());
+    for (int i = 0; i < nv; ++i) w.h[i] = w.tau[i] - w.h[i];
+    a0 = llt.solve(Eigen::Map<const Eigen::VectorXd>(w.h.data(), nv));
+    z = Phiq * a0 - Eigen::Map<const Eigen::VectorXd>(w.gamma.data(), nc);
+  }
+  Eigen::VectorXd uz = es.eigenvectors().transpose() * z;
+  for (int i = 0; i < nc; ++i) uz[i] *= s[i] / (s[i] * s[i] + tau * tau);
+  const Eigen::VectorXd x = a0 - Y * (es.eigenvectors() * uz);
+  for (int i = 0; i < nv; ++i) dv[i] = x[i];
+  return true;
+}
+
 void Mechanism::project_positions(double t, double* q) const {
   // Newton on Phi(q) = 0 with the minimum-norm correction in the mass metric:
   // solve_augmented(M, 0, Phiq, -Phi) gives dq = -M^-1 Phiq^T (Phiq M^-1 Phiq^T)^-1 Phi
@@ -887,9 +927,13 @@ void Mechanism::project_positions(double t, double* q) const {
   for (int it = 0; it < kMaxIt; ++it) {
     sys_.constraint_jacobian(q, w.Phiq.data());
     for (int i = 0; i < sys_.nc; ++i) w.gamma[i] = -w.phi[i];
-    const int status = sys_.solve_augmented(w.M.data(), w.zero_nv.data(), w.Phiq.data(), w.gamma.data(),
-                                            w.dv.data(), w.lambda.data());
-    if (status != 0 && !regularized_answer(status)) fail(t, "projection onto Phi(q) = 0", status);
+    if (set_.singular_damping > 0.0) {
+      damped_solve(q, nullptr, w.phi.data(), true, w.dv.data());
+    } else {
+      const int status = sys_.solve_augmented(w.M.data(), w.zero_nv.data(), w.Phiq.data(), w.gamma.data(),
+                                              w.dv.data(), w.lambda.data());
+      if (status != 0 && !regularized_answer(status)) fail(t, "projection onto Phi(q) = 0", status);
+    }
     retract(q, w.dv.data());
     sys_.constraints(q, w.phi.data());
     const double r_new = max_abs(w.phi);
@@ -917,9 +961,14 @@ void Mechanism::project_velocities(double t, const double* q, double* v) const {
     for (int c = 0; c < sys_.nv; ++c) pv += w.Phiq[r + static_cast<std::size_t>(c) * sys_.nc] * v[c];
     w.gamma[r] = -pv;
   }
-  const int status = sys_.solve_augmented(w.M.data(), w.zero_nv.data(), w.Phiq.data(), w.gamma.data(), w.dv.data(),
-                                          w.lambda.data());
-  if (status != 0 && !regularized_answer(status)) fail(t, "projection onto Phiq v = 0", status);
+  if (set_.singular_damping > 0.0) {
+    for (int r = 0; r < sys_.nc; ++r) w.phi[r] = -w.gamma[r];  // Phiq v
+    damped_solve(q, nullptr, w.phi.data(), true, w.dv.data());
+  } else {
+    const int status = sys_.solve_augmented(w.M.data(), w.zero_nv.data(), w.Phiq.data(), w.gamma.data(),
+                                            w.dv.data(), w.lambda.data());
+    if (status != 0 && !regularized_answer(status)) fail(t, "projection onto Phiq v = 0", status);
+  }
   for (int i = 0; i < sys_.nv; ++i) v[i] += w.dv[i];
 }
 

@@ -194,6 +194,14 @@ struct MechanismSettings {
   /// above phi_tol (absolute, the model's length unit: raise it for a model
   /// measured in millimetres) or after 30 iterations is a Failure.
   double phi_tol = 1e-12;
+  /// Crossing a configuration where the constraint rows lose rank (a parallelogram's flat
+  /// configuration), at tight tolerances.  0 (default): off.  tau > 0: wherever the smallest
+  /// eigenvalue of W = Phiq M^-1 Phiq^T is below 1e3 tau times its largest, the
+  /// accelerations come from a dense solve that damps W's eigencomponents below tau times
+  /// the largest (Tikhonov: 1 / s becomes s / (s^2 + (tau s_max)^2)), and the projections
+  /// always use that damped correction.  Costs a dense eigendecomposition of W per f call
+  /// and per projection step (docs/simulation.md, "A02 in time": tau = 1e-10 there).
+  double singular_damping = 0.0;
 };
 
 class Mechanism {
@@ -239,6 +247,9 @@ class Mechanism {
   void retract(double* q, const double* dv) const;  // q <- q (+) dv
   void project_positions(double t, double* q) const;
   bool regularized_answer(int status) const;  // status 2 with a regularized answer written
+  // MechanismSettings::singular_damping: false when W is far from singular (no answer);
+  // else dv = -M^-1 Phiq^T W_damped^+ r (r = nullptr: the acceleration into dv, with tau).
+  bool damped_solve(const double* q, const double* v, const double* r, bool always, double* dv) const;
   void project_velocities(double t, const double* q, double* v) const;
   void normalize_quaternions(double* q) const;
   [[noreturn]] void fail(double t, const char* what, int status) const;
