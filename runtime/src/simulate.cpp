@@ -81,6 +81,13 @@ struct Run {
     }
     if (status != 0) throw Failure(t, last_rhs_error);
   }
+  // An accepted step's local error estimate (the vector whose norm the step-size control
+  // used): into Stats::err_est and err_step_max (max norm, the state's units).
+  void note_error(const Vec& err) {
+    const double e = err.cwiseAbs().maxCoeff();
+    st.err_est += e;
+    st.err_step_max = std::max(st.err_step_max, e);
+  }
   void accept(double t, Vec& y) {
     if (p.after_step) p.after_step(t, y.data());
   }
@@ -211,6 +218,7 @@ void dopri5(Run& r, Vec& y, bool detect) {
     r3 = h * k1 - r2;
     r4 = r2 - h * k7 - r3;
     r5 = h * (d1 * k1 + d3 * k3 + d4 * k4 + d5 * k5 + d6 * k6 + d7 * k7);
+    r.note_error(err);
     const double ta = t;
     const double den = (y1 - yt).squaredNorm();
     const double h_lambda = den > 0.0 ? h * std::sqrt((k7 - k6).squaredNorm() / den) : 0.0;
@@ -396,6 +404,7 @@ void sdirk4(Run& r, Vec& y) {
       rejected_last = true;
       continue;
     }
+    r.note_error(err);
     const double ta = t;
     t = (h == r.t_end - t) ? r.t_end : t + h;
     ++r.st.steps;
@@ -552,6 +561,7 @@ void radau5(Run& r, Vec& y) {
       rejected_last = true;
       continue;
     }
+    r.note_error(err);
     const double ta = t, h_step = h;
     t = (h == r.t_end - t) ? r.t_end : t + h;
     ++r.st.steps;
@@ -575,6 +585,21 @@ void radau5(Run& r, Vec& y) {
 }
 
 // ---- Classical Runge-Kutta, fixed step ----------------------------------------
+// rk4's error estimate, free: with k5 = f(t + h, y1) (needed anyway for the next step and
+// the dense output), the weights (1/6, 1/3, 1/3, 0, 1/6) on (k1, k2, k3, k4, k5) are an
+// embedded formula of order 3 (its conditions: sum b = 1, sum b c = 1/2, sum b c^2 = 1/3,
+// sum b a c = 1/6 hold with c5 = 1, a5j = b_j).  Their difference from RK4's y1 is
+// h / 6 (k4 - k5): an estimate of the order-3 formula's local error, so an upper estimate of
+// RK4's.  It also catches a step whose last stage differs from the state it led to, as when
+// a stage near a singular configuration got an acceleration of the motion on another branch
+// (docs/simulation.md, "Fixed steps: err_est").  f(y1) is at the stabilized y1: the
+// projection's move is in it too.
+void rk4_estimate(Run& r, double h, const Vec& k4, const Vec& k5) {
+  const double e = h / 6 * (k4 - k5).cwiseAbs().maxCoeff();
+  r.st.err_est += e;
+  r.st.err_step_max = std::max(r.st.err_step_max, e);
+}
+
 void rk4(Run& r, Vec& y) {
   if (!(r.s.dt > 0.0)) throw Failure(r.t0, "rk4 needs a step: give --dt (Settings::dt)");
   const Eigen::Index n = y.size();
@@ -598,6 +623,7 @@ void rk4(Run& r, Vec& y) {
     ++r.st.steps;
     r.accept(t, y);
     r.f_accepted(t, y, k1);
+    rk4_estimate(r, h, k4, k1);
     r.output(t, y, [&](double tt, Vec& out) { hermite(ta, t, ya, fa, y, k1, tt, out); });
   }
 }
@@ -795,17 +821,23 @@ int Mechanism::rhs(double t, const double* y, double* dydt, std::string& error) 
     }
     status = sys_.solve_augmented(w.M.data(), w.h.data(), w.Phiq.data(), w.gamma.data(), dydt + sys_.nq,
                                   w.lambda.data());
+  } else if (set_.singular_damping > 0.0 && sys_.nc > 0 && damped_solve(q, v, nullptr, false, dydt + sys_.nq)) {
+    return 0;  // (no generated solve ran: its last_solve_regularized() is not this one's)
   } else {
     status = sys_.forward_dynamics(q, v, w.tau.data(), dydt + sys_.nq, w.lambda.data());
   }
-  if (status != 0)
-    error = "forward dynamics status " + std::to_string(status) + ": " + sys_.last_error() + status_hint(status);
   (void)t;
-  if (status == 0 && sys_.last_solve_regularized && sys_.last_solve_regularized()) {
+  // A regularized answer (--singular proximal): status 0 at a state singular to working
+  // precision, or status 2 with the answer written near, not at, it (without its digits,
+  // docs/singular.md).  Either is kRhsRegularized: a stage with one rejects the step.
+  if ((status == 0 || status == 2) && sys_.last_solve_regularized && sys_.last_solve_regularized()) {
     error = "forward dynamics regularized (--singular proximal: constraint rows dependent to working precision, "
             "docs/singular.md) at " + singular_rows(q);
+    if (status != 0) error += std::string("; ") + sys_.last_error();
     return kRhsRegularized;
   }
+  if (status != 0)
+    error = "forward dynamics status " + std::to_string(status) + ": " + sys_.last_error() + status_hint(status);
   return status;
 }
 
@@ -836,6 +868,51 @@ std::string Mechanism::singular_rows(const double* q) const {
          fmt_g(d[k] / std::max(d.maxCoeff(), 1e-300)) + " of the largest";
 }
 
+// A projection's solve near, not at, a singular configuration (--singular proximal): status 2
+// with the regularized correction written (docs/singular.md), which relaxes the vanishing
+// direction; the correction is used, as the minimum-norm one is at the singular state.
+bool Mechanism::regularized_answer(int status) const {
+  return status == 2 && sys_.last_solve_regularized && sys_.last_solve_regularized();
+}
+
+// MechanismSettings::singular_damping (docs/simulation.md, "A02 in time").  Near a
+// configuration where the rows of Phiq lose rank, the exact acceleration of a state a
+// rounding error off the branch is that of the neighbouring branch (the constraint force
+// along the vanishing direction is divided by W's vanishing eigenvalue s); damping the
+// components with s below tau s_max (Tikhonov) keeps that force out.  The damped force is
+// M-orthogonal to null(Phiq), so the acceleration along the admissible motion is unchanged.
+// With r: the projection's correction dv = -M^-1 Phiq^T W_damped^+ r.  Without: the
+// acceleration M^-1 (tau - h) - M^-1 Phiq^T W_damped^+ (Phiq M^-1 (tau - h) - gamma),
+// computed only when W's smallest eigenvalue is below 1e3 tau s_max (`always` false).
+bool Mechanism::damped_solve(const double* q, const double* v, const double* r, bool always, double* dv) const {
+  const int nv = sys_.nv, nc = sys_.nc;
+  Work& w = work(sys_);
+  sys_.mass_matrix(q, w.M.data());
+  sys_.constraint_jacobian(q, w.Phiq.data());
+  const Eigen::Map<const Eigen::MatrixXd> M(w.M.data(), nv, nv), Phiq(w.Phiq.data(), nc, nv);
+  const Eigen::LLT<Eigen::MatrixXd> llt(M);
+  const Eigen::MatrixXd Y = llt.solve(Phiq.transpose());
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(Phiq * Y);
+  const Eigen::VectorXd& s = es.eigenvalues();
+  const double tau = set_.singular_damping * s[nc - 1];
+  if (!always && !(s[0] < 1e3 * tau)) return false;
+  Eigen::VectorXd z(nc), a0 = Eigen::VectorXd::Zero(nv);
+  if (r) {
+    z = Eigen::Map<const Eigen::VectorXd>(r, nc);
+  } else {
+    sys_.bias_forces(q, v, w.h.data());
+    sys_.constraint_gamma(q, v, w.gamma.data());
+    for (int i = 0; i < nv; ++i) w.h[i] = w.tau[i] - w.h[i];
+    a0 = llt.solve(Eigen::Map<const Eigen::VectorXd>(w.h.data(), nv));
+    z = Phiq * a0 - Eigen::Map<const Eigen::VectorXd>(w.gamma.data(), nc);
+  }
+  Eigen::VectorXd uz = es.eigenvectors().transpose() * z;
+  for (int i = 0; i < nc; ++i) uz[i] *= s[i] / (s[i] * s[i] + tau * tau);
+  const Eigen::VectorXd x = a0 - Y * (es.eigenvectors() * uz);
+  for (int i = 0; i < nv; ++i) dv[i] = x[i];
+  return true;
+}
+
 void Mechanism::project_positions(double t, double* q) const {
   // Newton on Phi(q) = 0 with the minimum-norm correction in the mass metric:
   // solve_augmented(M, 0, Phiq, -Phi) gives dq = -M^-1 Phiq^T (Phiq M^-1 Phiq^T)^-1 Phi
@@ -850,9 +927,13 @@ void Mechanism::project_positions(double t, double* q) const {
   for (int it = 0; it < kMaxIt; ++it) {
     sys_.constraint_jacobian(q, w.Phiq.data());
     for (int i = 0; i < sys_.nc; ++i) w.gamma[i] = -w.phi[i];
-    const int status = sys_.solve_augmented(w.M.data(), w.zero_nv.data(), w.Phiq.data(), w.gamma.data(),
-                                            w.dv.data(), w.lambda.data());
-    if (status != 0) fail(t, "projection onto Phi(q) = 0", status);
+    if (set_.singular_damping > 0.0) {
+      damped_solve(q, nullptr, w.phi.data(), true, w.dv.data());
+    } else {
+      const int status = sys_.solve_augmented(w.M.data(), w.zero_nv.data(), w.Phiq.data(), w.gamma.data(),
+                                              w.dv.data(), w.lambda.data());
+      if (status != 0 && !regularized_answer(status)) fail(t, "projection onto Phi(q) = 0", status);
+    }
     retract(q, w.dv.data());
     sys_.constraints(q, w.phi.data());
     const double r_new = max_abs(w.phi);
@@ -880,9 +961,14 @@ void Mechanism::project_velocities(double t, const double* q, double* v) const {
     for (int c = 0; c < sys_.nv; ++c) pv += w.Phiq[r + static_cast<std::size_t>(c) * sys_.nc] * v[c];
     w.gamma[r] = -pv;
   }
-  const int status = sys_.solve_augmented(w.M.data(), w.zero_nv.data(), w.Phiq.data(), w.gamma.data(), w.dv.data(),
-                                          w.lambda.data());
-  if (status != 0) fail(t, "projection onto Phiq v = 0", status);
+  if (set_.singular_damping > 0.0) {
+    for (int r = 0; r < sys_.nc; ++r) w.phi[r] = -w.gamma[r];  // Phiq v
+    damped_solve(q, nullptr, w.phi.data(), true, w.dv.data());
+  } else {
+    const int status = sys_.solve_augmented(w.M.data(), w.zero_nv.data(), w.Phiq.data(), w.gamma.data(),
+                                            w.dv.data(), w.lambda.data());
+    if (status != 0 && !regularized_answer(status)) fail(t, "projection onto Phiq v = 0", status);
+  }
   for (int i = 0; i < sys_.nv; ++i) v[i] += w.dv[i];
 }
 

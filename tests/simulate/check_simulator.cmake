@@ -41,6 +41,15 @@ file(STRINGS "${csv}" rows)
 list(LENGTH rows n)
 expect("n EQUAL 52" "rk4 --dt 0.01: ${n} lines, expected 52")
 expect("out MATCHES \"steps=50 \"" "rk4 --dt 0.01: '${out}'")
+expect("out MATCHES \" err_est=[0-9.]+e-0[5-9] err_step_max=[0-9.e+-]+ \"" "rk4 --dt 0.01: err_est: '${out}'")
+
+# 2b. rk4 with too long a step says so on stderr (docs/simulation.md, "Fixed steps: err_est"):
+# --dt 0.2 over 2 s ends with the energy 1.83 J against 2.67 J (measured err_est 0.68); exit 0.
+execute_process(COMMAND "${SIM}" --t-end 2 --v0 2,0,0 --integrator rk4 --dt 0.2
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+expect("rc EQUAL 0" "rk4 --dt 0.2: exit ${rc}: ${err}")
+expect("err MATCHES \"^fourbar_sim: warning: rk4 with --dt 0.2: estimated error [0-9.]+e-01 .*docs/simulation.md.\n$\"" "rk4 --dt 0.2: stderr '${err}'")
+expect("out MATCHES \" err_est=[0-9.]+e-01 \"" "rk4 --dt 0.2: '${out}'")
 
 # 3. Errors: one line on stderr, non-zero exit.
 foreach(case "--q0;1,2" "--v0;0,nan,0" "--integrator;euler" "--rtol;-1")

@@ -118,6 +118,31 @@ TEST(Rk4, FourthOrder) {
   EXPECT_NEAR(err[0] / err[1], 16.0, 1.5);
 }
 
+// rk4's error estimate (Stats::err_est, the sum of h / 6 |k4 - f(y1)| over the steps): on the
+// oscillator over 5 s, at or above the true error (the embedded formula is of order 3) and
+// falling as dt^3 (the sum of n = T / dt local terms of order dt^4), so above the true
+// error by a factor that grows as dt falls: measured, printed.  Asserted: at or above the
+// true error, at most 1000 x it down to dt = 0.025, and the order: ratio 8 +- 1.5 per halving.
+TEST(Rk4, ErrorEstimate) {
+  double est[3], err[3];
+  for (int k = 0; k < 3; ++k) {
+    Settings s;
+    s.method = "rk4";
+    s.dt = 0.1 / (1 << k);
+    std::vector<double> y = {1.0, 0.0};
+    const auto st = jrgen::sim::integrate(oscillator(), 0.0, 5.0, y, s);
+    err[k] = oscillator_error(5.0, y.data());
+    est[k] = st.err_est;
+    std::printf("rk4 dt %g: error %.3e, err_est %.3e, err_step_max %.3e\n", s.dt, err[k], est[k], st.err_step_max);
+    EXPECT_GE(est[k], err[k]);
+    EXPECT_LE(est[k], 1000 * err[k]);
+    EXPECT_GT(st.err_step_max, 0.0);
+    EXPECT_LE(st.err_step_max, est[k]);
+  }
+  EXPECT_NEAR(est[0] / est[1], 8.0, 1.5);
+  EXPECT_NEAR(est[1] / est[2], 8.0, 1.5);
+}
+
 // Prothero-Robinson, y' = lambda (y - sin t) + cos t, lambda = -1e6, y(0) = 0:
 // y = sin t.  Stiff: an explicit method is stable only for h <= 3.3e-6
 // (dopri5's stability boundary on the negative axis), ~3e6 steps over [0, 10].

@@ -21,7 +21,8 @@
 //                (I - h gamma J) (size n), the same Jacobian reuse; error
 //                estimate filtered by (I - h gamma J)^-1 (HW II, IV.8 (8.20));
 //                dense output by cubic Hermite interpolation;
-//      "rk4"     classical Runge-Kutta with the fixed step dt (no error control).
+//      "rk4"     classical Runge-Kutta with the fixed step dt (no error control;
+//                its error is estimated: Stats::err_est).
 //    The default copes with stiff problems.
 //
 //  * System + Mechanism: the state y = (q, v) of a generated solver,
@@ -54,7 +55,9 @@
 //
 // Solvers generated with --singular proximal (docs/singular.md) answer at a
 // singular configuration with a regularized solve (status 0,
-// last_solve_regularized()).  The Mechanism sees that flag (System::
+// last_solve_regularized()), and near, not at, it with the regularized answer
+// written but status 2 (it lacks its digits there); both are regularized
+// answers here.  The Mechanism sees that flag (System::
 // last_solve_regularized, filled by JRGEN_SIM_SYSTEM when the namespace has
 // it): a stage of a step that got a regularized answer rejects the step like
 // a failed solve (the regularized acceleration is not the limit along the
@@ -123,6 +126,13 @@ struct Stats {
   long regularized = 0;  ///< f calls answered by a regularized solve (kRhsRegularized), used or not
   long regularized_used = 0;  ///< of these, at accepted states: their answers are in the result
   std::string regularized_note;  ///< the first used one: "at t = ...: " and rhs's description
+  /// The sum over accepted steps of each step's local error estimate (max norm, the state's
+  /// units): a first-order estimate of how far off the result may be, without the growth or
+  /// decay of errors along the motion (docs/simulation.md, "Fixed steps: err_est").  rk4:
+  /// h / 6 |k4 - f(y1)|, its embedded order-3 formula (no extra f call); the other methods:
+  /// the estimate their step-size control used.
+  double err_est = 0.0;
+  double err_step_max = 0.0;  ///< the largest of those estimates
   double t = 0.0;        ///< time reached
 };
 
@@ -184,6 +194,14 @@ struct MechanismSettings {
   /// above phi_tol (absolute, the model's length unit: raise it for a model
   /// measured in millimetres) or after 30 iterations is a Failure.
   double phi_tol = 1e-12;
+  /// Crossing a configuration where the constraint rows lose rank (a parallelogram's flat
+  /// configuration), at tight tolerances.  0 (default): off.  tau > 0: wherever the smallest
+  /// eigenvalue of W = Phiq M^-1 Phiq^T is below 1e3 tau times its largest, the
+  /// accelerations come from a dense solve that damps W's eigencomponents below tau times
+  /// the largest (Tikhonov: 1 / s becomes s / (s^2 + (tau s_max)^2)), and the projections
+  /// always use that damped correction.  Costs a dense eigendecomposition of W per f call
+  /// and per projection step (docs/simulation.md, "A02 in time": tau = 1e-10 there).
+  double singular_damping = 0.0;
 };
 
 class Mechanism {
@@ -228,6 +246,10 @@ class Mechanism {
   std::string singular_rows(const double* q) const;  // the dependent constraint row, for messages
   void retract(double* q, const double* dv) const;  // q <- q (+) dv
   void project_positions(double t, double* q) const;
+  bool regularized_answer(int status) const;  // status 2 with a regularized answer written
+  // MechanismSettings::singular_damping: false when W is far from singular (no answer);
+  // else dv = -M^-1 Phiq^T W_damped^+ r (r = nullptr: the acceleration into dv, with tau).
+  bool damped_solve(const double* q, const double* v, const double* r, bool always, double* dv) const;
   void project_velocities(double t, const double* q, double* v) const;
   void normalize_quaternions(double* q) const;
   [[noreturn]] void fail(double t, const char* what, int status) const;
