@@ -9,8 +9,24 @@
 #   JRGEN_FUZZ=ON      Clang only: the libFuzzer target tests/fuzz and just the
 #                      libraries it needs, with coverage instrumentation and
 #                      ASan + UBSan.  scripts/fuzz.sh builds and runs it.
+#   JRGEN_TSAN=ON      ThreadSanitizer, Clang only (with LLVM's libomp, whose
+#                      OMPT tool Archer tells TSan about OpenMP's
+#                      synchronization; GCC's libgomp is not instrumented and
+#                      gives false reports).  scripts/tsan.sh builds and runs
+#                      the threaded programs.
 if(JRGEN_SANITIZE AND JRGEN_FUZZ)
   message(FATAL_ERROR "JRGEN_SANITIZE and JRGEN_FUZZ are separate builds: choose one (JRGEN_FUZZ includes ASan + UBSan)")
+endif()
+if(JRGEN_TSAN AND (JRGEN_SANITIZE OR JRGEN_FUZZ))
+  message(FATAL_ERROR "JRGEN_TSAN is a build of its own: ThreadSanitizer cannot be combined with ASan")
+endif()
+if(JRGEN_TSAN)
+  if(NOT CMAKE_CXX_COMPILER_ID STREQUAL "Clang")
+    message(FATAL_ERROR "JRGEN_TSAN=ON needs Clang and libomp (-DCMAKE_CXX_COMPILER=clang++-14; Debian packages "
+                        "clang-14 libomp-14-dev), not ${CMAKE_CXX_COMPILER_ID}: libgomp is not instrumented")
+  endif()
+  add_compile_options(-fsanitize=thread -fno-omit-frame-pointer)
+  add_link_options(-fsanitize=thread)
 endif()
 
 set(JRGEN_SANITIZER_FLAGS -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer)

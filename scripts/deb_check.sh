@@ -19,9 +19,12 @@ tmp="$(mktemp -d)"
 cleanup() { rm -rf "$tmp"; dpkg -r jrgen >/dev/null 2>&1 || true; }
 trap cleanup EXIT
 apt-get install -y -qq "$deb" >/dev/null
-command -v jrgen >/dev/null && jrgen --version
+dpkg -L jrgen | grep -qx /usr/bin/jrgen || { echo "deb_check: the package holds no /usr/bin/jrgen" >&2; exit 1; }
+/usr/bin/jrgen --version
 cmake -S "$root/examples/downstream" -B "$tmp/b" -DJRGEN_MODELS_DIR="$root/models" -DCMAKE_FIND_USE_PACKAGE_REGISTRY=OFF >/dev/null
 grep -q "^jrgen_DIR:PATH=/usr/" "$tmp/b/CMakeCache.txt" || { echo "deb_check: find_package(jrgen) did not find the package under /usr" >&2; exit 1; }
 cmake --build "$tmp/b" -j2 >/dev/null
-"$tmp/b/app"
+out="$("$tmp/b/app")"
+echo "$out"
+grep -qx OK <<<"$out" || { echo "deb_check: examples/downstream did not print OK" >&2; exit 1; }
 echo "deb_check: the package installs, and examples/downstream builds and runs against it"

@@ -55,7 +55,7 @@ apt_get() {
 demo_packages=(build-essential cmake libeigen3-dev liburdfdom-dev libtinyxml-dev libfmt-dev)
 test_packages=(libgtest-dev libbenchmark-dev
                liblapacke-dev libopenblas-dev libsuitesparse-dev libmujoco-dev gnuplot-nox python3
-               clang-14 libclang-rt-14-dev
+               clang-14 libclang-rt-14-dev libomp-14-dev  # fuzzing; ThreadSanitizer with libomp (scripts/tsan.sh)
                libsundials-dev  # CVODE: the independent reference trajectories (tests/reference/trajectory_reference.cpp)
                graphviz  # jrgen --graph OUT.svg renders with dot (tests/generator/graph_test.cpp)
                openmpi-bin libopenmpi-dev)  # examples/batch_mpi and its test (optional in CMake)

@@ -35,10 +35,13 @@ tests=(cli_test runtime_test golden_test urdf_reader_test generated_solver_test 
 # JRGEN_RUNTIME_SUBSET): the others would be compiled for nothing.
 runtime_subset="runtime;forces;constraint_solve"
 
+# JRGEN_SELECTED_TARGETS: jrgen and the programs as one target, jrgen_selected,
+# so that make -j2 compiles them side by side (CMakeLists.txt).
+selected="jrgen$(printf ';%s' "${tests[@]}")"
 cmake -S . -B "$build" -DJRGEN_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" -DJRGEN_TEST_SUBSET="$subset" \
-  -DJRGEN_RUNTIME_SUBSET="$runtime_subset" >/dev/null
-cmake --build "$build" -j2 --target jrgen "${tests[@]}"
+  -DJRGEN_RUNTIME_SUBSET="$runtime_subset" -DJRGEN_SELECTED_TARGETS="$selected" >/dev/null
+cmake --build "$build" -j2 --target jrgen_selected
 
 export ASAN_OPTIONS=detect_leaks=1:halt_on_error=1:abort_on_error=1:check_initialization_order=1:strict_init_order=1
 export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1

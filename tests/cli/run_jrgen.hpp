@@ -4,7 +4,9 @@
 #pragma once
 
 #include <fcntl.h>
+#include <sched.h>
 #include <stdlib.h>
+#include <sys/mount.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -93,7 +95,13 @@ struct RunResult {
 
 /// Runs jrgen with `args` in folder `cwd`; stdout and stderr go to files in a
 /// private scratch folder (never in `cwd`), so they cannot disturb snapshots.
-inline RunResult run_jrgen(const std::vector<std::string>& args, const fs::path& cwd) {
+/// With `read_only` set, jrgen runs in a mount namespace of its own where that
+/// folder is a read-only bind mount of itself (needs root: CAP_SYS_ADMIN), so
+/// that writes there fail for root too; the child exits 125, saying why on
+/// stderr, when it cannot set that up.
+inline RunResult run_jrgen(const std::vector<std::string>& args, const fs::path& cwd,
+                           const fs::path& read_only = {}) {
+  const std::string ro = read_only.string();
   ScratchDir capture("jrgen_capture");
   const std::string out_file = (capture / "stdout").string();
   const std::string err_file = (capture / "stderr").string();
@@ -120,6 +128,14 @@ inline RunResult run_jrgen(const std::vector<std::string>& args, const fs::path&
     ::dup2(fi, 0);
     ::dup2(fo, 1);
     ::dup2(fe, 2);
+    if (!ro.empty() &&
+        (::unshare(CLONE_NEWNS) != 0 || ::mount(nullptr, "/", nullptr, MS_REC | MS_PRIVATE, nullptr) != 0 ||
+         ::mount(ro.c_str(), ro.c_str(), nullptr, MS_BIND, nullptr) != 0 ||
+         ::mount(nullptr, ro.c_str(), nullptr, MS_REMOUNT | MS_BIND | MS_RDONLY, nullptr) != 0)) {
+      static const char kWhy[] = "run_jrgen: cannot make a read-only bind mount in a private mount namespace\n";
+      if (::write(2, kWhy, sizeof kWhy - 1) < 0) ::_exit(125);
+      ::_exit(125);
+    }
     ::execv(argv[0], argv.data());
     ::_exit(127);
   }

@@ -14,7 +14,9 @@
 // Work per input is bounded so that no input can hang the fuzzer: at most
 // kMaxInputBytes of text and, past the readers, at most kMaxLinks links and
 // kMaxCuts cut joints (the assembly Newton iteration of analyze_constraints
-// is itself bounded, 60 iterations).
+// is itself bounded, 60 iterations).  The replay (fuzz_replay, compiled with
+// JRGEN_FUZZ_REPLAY) runs each seed once, so it lifts these bounds: every
+// seed is run whole, the largest models included.
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
@@ -32,9 +34,15 @@
 
 namespace {
 
+#if defined(JRGEN_FUZZ_REPLAY)
+constexpr std::size_t kMaxInputBytes = SIZE_MAX;
+constexpr std::size_t kMaxLinks = SIZE_MAX;
+constexpr std::size_t kMaxCuts = SIZE_MAX;
+#else
 constexpr std::size_t kMaxInputBytes = 32 * 1024;
 constexpr std::size_t kMaxLinks = 64;
 constexpr std::size_t kMaxCuts = 12;
+#endif
 
 [[noreturn]] void fail(const char* what, const std::string& detail) {
   std::fprintf(stderr, "fuzz_urdf: %s: %s\n", what, detail.c_str());

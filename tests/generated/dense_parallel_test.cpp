@@ -17,6 +17,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <cmath>
+#include <filesystem>
 #include <random>
 #include <string>
 
@@ -161,6 +162,24 @@ void check_parallel(const Api& par, const Api& ser, unsigned seed) {
 TEST(Parallel, EqualsSerialOnRandomTrees) {
   check_parallel(JR_API(gen_par_tree1000), JR_API(gen_ser_tree1000), 11);
   check_parallel(JR_API(gen_par_tree1000_ldlt), JR_API(gen_ser_tree1000_ldlt), 12);
+}
+
+// The parallel variant really runs in parallel: without OpenMP its pragmas
+// compile away and the comparison above passes with one thread.  The solver's
+// OpenMP flags reach this file too (add_jr_solver links OpenMP::OpenMP_CXX
+// PUBLIC), and libgomp keeps the team's threads after the call.
+TEST(Parallel, RunsOnTwoThreads) {
+#if !defined(_OPENMP)
+  FAIL() << "compiled without OpenMP: the --threads 2 solvers run serially (cmake/jrgen_solver.cmake)";
+#else
+  const Api par = JR_API(gen_par_tree1000);
+  const State s = random_state(par, 14);
+  Eigen::VectorXd qdd(par.nv);
+  ASSERT_EQ(par.forward_dynamics(s.q.data(), s.v.data(), s.tau.data(), qdd.data(), nullptr), 0) << par.last_error();
+  long threads = 0;
+  for (const auto& entry : std::filesystem::directory_iterator("/proc/self/task")) threads += entry.is_directory();
+  EXPECT_GE(threads, 2) << "one thread after a call of the --threads 2 solver";
+#endif
 }
 
 // The 3000-dof tree's serial solver is straight-line code that takes minutes

@@ -25,16 +25,11 @@ add_test(NAME package.install_and_build_downstream
 set_tests_properties(package.install_and_build_downstream PROPERTIES
   TIMEOUT 900 LABELS package COST 1000)
 
-# jrgen pulled into a project's own build (tests/package/subproject): with
-# FetchContent, built and run (Debug: the quickest full compile of jrgen);
-# with add_subdirectory(), configured (the same add_subdirectory() underneath,
-# so building it twice would only repeat the compile).
+# jrgen pulled into a project's own build (tests/package/subproject), with
+# FetchContent and with add_subdirectory(): each built and run, its output
+# checked (Debug without -g: the quickest full compile of jrgen).
 foreach(_mode fetchcontent subdirectory)
-  if(_mode STREQUAL "fetchcontent")
-    set(_build ON)
-  else()
-    set(_build OFF)
-  endif()
+  set(_build ON)
   add_test(NAME package.subproject_${_mode}
     COMMAND "${CMAKE_COMMAND}"
       "-DJRGEN_SOURCE_DIR=${PROJECT_SOURCE_DIR}"
@@ -47,10 +42,19 @@ foreach(_mode fetchcontent subdirectory)
       "-DLAUNCHER=${CMAKE_CXX_COMPILER_LAUNCHER}"
       -P "${CMAKE_CURRENT_LIST_DIR}/subproject_test.cmake")
   set_tests_properties(package.subproject_${_mode} PROPERTIES TIMEOUT 900 LABELS package)
-  if(_build)
-    set_tests_properties(package.subproject_${_mode} PROPERTIES COST 2000)  # first (see above)
-  endif()
+  set_tests_properties(package.subproject_${_mode} PROPERTIES COST 2000)  # first (see above)
 endforeach()
+
+# The README's demo (examples/demo), run and its output checked: sizes against
+# the URDF, errors against its dense reference (tests/package/check_demo.cmake).
+if(TARGET jrgen_demo)
+  add_test(NAME examples.demo
+           COMMAND "${CMAKE_COMMAND}" "-DDEMO=$<TARGET_FILE:jrgen_demo>" "-DURDF=${JRGEN_DEMO_MODEL}"
+                   -P "${CMAKE_CURRENT_LIST_DIR}/check_demo.cmake")
+else()
+  add_test(NAME examples.demo COMMAND "${CMAKE_COMMAND}" -E echo "examples/demo not built (JRGEN_BUILD_DEMO=OFF)")
+  set_tests_properties(examples.demo PROPERTIES SKIP_REGULAR_EXPRESSION "not built")
+endif()
 
 # add_jr_solver() / add_jr_simulator() called wrongly: the configure stops with
 # a message naming the fix (tests/package/bad_call.cmake).

@@ -5,6 +5,7 @@
 // accelerations and multipliers), the pendulum and the N four-bar against their closed-form
 // one-degree-of-freedom equations.  Sources: docs/simulation.md, "Published problems".
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 
 #include <Eigen/Dense>
 #include <chrono>
@@ -104,17 +105,9 @@ void ts_solve(const double* y, const double* v, Vec& w, Vec& lambda) {
   lambda = x.tail(6);
 }
 
-// The forces jrgen gets as tau: none once the generator puts <spring> and <joint_force>
-// in h (INTERFACE.md 2b); before that, the motor and the spring (the test set's ff(1) at
-// rest and ff(3)), in jrgen's order (beta and gamma have the same index in both).
-Vec andrews_tau(const double* y) {
-  Vec tau = Vec::Zero(7);
-  if (!JR_FORCE_ELEMENTS) {
-    tau[0] = andrews_ref::mom;
-    tau[2] = andrews_ts::spring_force(y);
-  }
-  return tau;
-}
+// The forces jrgen gets as tau: none, since the generator puts the model's <spring> and
+// <joint_force> (the test set's motor, ff(1), and spring, ff(3)) in h (INTERFACE.md 2b).
+Vec andrews_tau(const double*) { return Vec::Zero(7); }
 
 struct JrResult {
   int status;
@@ -196,7 +189,6 @@ TEST(Andrews, ConstraintsAdmitTheTestSetsMotion) {
 
 // With the force elements in h: at rest h = -(motor + spring), the test set's ff.
 TEST(Andrews, ForceElementsAreTheTestSetsAtRest) {
-  if (!JR_FORCE_ELEMENTS) GTEST_SKIP() << "generator without <spring>/<joint_force> yet";
   const Vec q = to_jr(andrews_ref::q0);
   const Vec v = Vec::Zero(7);
   Vec h(7);
@@ -262,8 +254,7 @@ TEST(Andrews, AccelerationAtPublishedEndState) {
 TEST(Andrews, ReachesThePublishedAnglesAtT003) {
   constexpr int kSteps = 60000;
   Vec q = to_jr(andrews_ref::q0), v = Vec::Zero(7);
-  const Vec tau = andrews_tau(andrews_ref::q0);  // constant only when JR_FORCE_ELEMENTS
-  ASSERT_TRUE(JR_FORCE_ELEMENTS) << "the spring's force depends on q: needs <spring> in h";
+  const Vec tau = andrews_tau(andrews_ref::q0);  // zero: the spring is in h
   int status = 0;
   auto qdd_of = [&](const Vec& qq, const Vec& vv) {
     Vec a(7);
@@ -694,13 +685,18 @@ TEST(IftommA02, FixedStepRunsSayHowFarOffTheyMayBe) {
 
 // ---- A04: Bricard --------------------------------------------------------------------
 
+// Runs `cmd` in a shell; its output, and a failure of the test unless it exits 0.
 std::string run(const std::string& cmd) {
   std::string out;
   FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return out;
+  if (!p) {
+    ADD_FAILURE() << "popen failed: " << cmd;
+    return out;
+  }
   char buf[512];
   while (std::fgets(buf, sizeof buf, p)) out += buf;
-  pclose(p);
+  const int status = pclose(p);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "status " << status << " of " << cmd << "\n" << out;
   return out;
 }
 
@@ -830,7 +826,6 @@ TEST(IftommA05, StiffGovernorInTime) {
 // 0, 1 - 0.5 sin 30): length L = |(0.5 cos 30, 0.3)|, tension K (L - 0.5), and its pull on
 // the slider along +z is K (L - 0.5) 0.3 / L.  So h_s = m_slider g - 2 K (L - 0.5) 0.3 / L.
 TEST(IftommA05, SpringsPullTheSlider) {
-  if (!JR_FORCE_ELEMENTS) GTEST_SKIP() << "generator without <spring> yet";
   namespace f = published_a05;
   const double q[4] = {0, 0.45, M_PI / 6, M_PI / 6}, v[4] = {0, 0, 0, 0};
   double h[4];

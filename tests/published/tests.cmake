@@ -30,13 +30,6 @@ jrgen_test(published_test published/published_test.cpp)
 target_link_libraries(published_test PRIVATE ${_pub_targets} published_a02_proximal Eigen3::Eigen)
 target_include_directories(published_test PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
 target_compile_definitions(published_test PRIVATE JRGEN_EXECUTABLE="$<TARGET_FILE:jrgen>")
-# Force elements (INTERFACE.md 2b) are in h once the generator has them; until then the
-# test passes the spring and the motor as tau.
-if(EXISTS "${PROJECT_SOURCE_DIR}/generator/emit/force_elements.hpp")
-  target_compile_definitions(published_test PRIVATE JR_FORCE_ELEMENTS=1)
-else()
-  target_compile_definitions(published_test PRIVATE JR_FORCE_ELEMENTS=0)
-endif()
 
 # Work-precision of the simulation layer on the five problems (issue 21 item 3;
 # docs/simulation.md, "Work-precision"): scripts/simulation_report.sh runs the full

@@ -51,10 +51,10 @@ expect("rc EQUAL 0" "rk4 --dt 0.2: exit ${rc}: ${err}")
 expect("err MATCHES \"^fourbar_sim: warning: rk4 with --dt 0.2: estimated error [0-9.]+e-01 .*docs/simulation.md.\n$\"" "rk4 --dt 0.2: stderr '${err}'")
 expect("out MATCHES \" err_est=[0-9.]+e-01 \"" "rk4 --dt 0.2: '${out}'")
 
-# 3. Errors: one line on stderr, non-zero exit.
+# 3. Errors: one line on stderr, exit status 2 for a bad command line (docs/cli.md).
 foreach(case "--q0;1,2" "--v0;0,nan,0" "--integrator;euler" "--rtol;-1")
   execute_process(COMMAND "${SIM}" --t-end 1 ${case} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
-  expect("NOT rc EQUAL 0" "'${case}' exited 0")
+  expect("rc EQUAL 2" "'${case}' exited ${rc}, expected 2")
   string(REGEX MATCHALL "\n" newlines "${err}")
   list(LENGTH newlines lines)
   expect("lines EQUAL 1" "'${case}': stderr is not one line: '${err}'")
@@ -63,9 +63,20 @@ endforeach()
 execute_process(COMMAND "${SIM}" --t-end 1 --q0 1,2 ERROR_VARIABLE err)
 expect("err MATCHES \"--q0: 2 values given, the model has nq = 3\"" "bad --q0 message: '${err}'")
 
-# 4. A failure of the generated solver during the run: the time and the joint.
-execute_process(COMMAND "${SIM}" --t-end 1 --v0 1e200,0,0 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
-expect("NOT rc EQUAL 0" "--v0 1e200,0,0 exited 0")
+# 4. A failure of the generated solver during the run: the time and the joint,
+#    exit status 1, and no CSV written (none created; an earlier one unchanged;
+#    no temporary file left).
+file(REMOVE "${csv}")
+execute_process(COMMAND "${SIM}" --t-end 1 --v0 1e200,0,0 --output "${csv}"
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+expect("rc EQUAL 1" "--v0 1e200,0,0 exited ${rc}, expected 1")
+expect("NOT EXISTS \"${csv}\"" "a failed run left ${csv}")
+file(WRITE "${csv}" "earlier\n")
+execute_process(COMMAND "${SIM}" --t-end 1 --v0 1e200,0,0 --output "${csv}" RESULT_VARIABLE rc2)
+file(READ "${csv}" earlier)
+expect("rc2 EQUAL 1 AND earlier STREQUAL \"earlier\n\"" "a failed run (exit ${rc2}) changed the earlier CSV: '${earlier}'")
+file(GLOB leftovers "${WORK}/*partial*")
+expect("leftovers STREQUAL \"\"" "temporary files left: ${leftovers}")
 expect("err MATCHES \"^fourbar_sim: error: at t = 0: forward dynamics status 3: .*joint 'joint_A'\"" "overflow: '${err}'")
 string(REGEX MATCHALL "\n" newlines "${err}")
 list(LENGTH newlines lines)
@@ -89,7 +100,7 @@ foreach(case
   math(EXPR bar "${bar} + 1")
   string(SUBSTRING "${case}" ${bar} -1 pattern)
   execute_process(COMMAND "${SIM}" ${args} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
-  expect("NOT rc EQUAL 0" "'${args}' exited 0")
+  expect("rc EQUAL 2" "'${args}' exited ${rc}, expected 2")
   string(REGEX MATCHALL "\n" newlines "${err}")
   list(LENGTH newlines lines)
   expect("lines EQUAL 1" "'${args}': stderr is not one line: '${err}'")
