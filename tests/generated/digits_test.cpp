@@ -224,7 +224,9 @@ TEST(DigitsSweep, ParallelogramTowardsItsChangePoint) {
 // against the same system (the given M, Q, Phiq, gamma) solved in __float128.
 TEST(DigitsSweep, NearlyDependentLoopRowsOnTheHmmwv) {
   for (const GeneratedSolver& s : testing::generated_solvers()) {
-    if (s.model_case != "loops_hmmwv14") continue;
+    // (--singular proximal answers a system singular to working precision
+    // with the regularized solution: docs/singular.md; tests/generated/singular_test.cpp.)
+    if (s.model_case != "loops_hmmwv14" || s.target.find("_proximal") != std::string::npos) continue;
     Eigen::VectorXd q = Eigen::VectorXd::Zero(s.nq);
     for (int j = 0; j < s.njoints; ++j) {
       const int nqj = (j + 1 < s.njoints ? s.joint_q_index[j + 1] : s.nq) - s.joint_q_index[j];

@@ -1096,7 +1096,7 @@ Recount recount_step(const std::string& cpp, const std::string& step) {
       std::string line = lines[k];
       if (const std::size_t c = line.find("//"); c != std::string::npos) line.resize(c);
       if (count_dense_kernel(line, &rc)) continue;
-      if (contains(line, "kPivotTolerance")) continue;
+      if (contains(line, "PivotTolerance")) continue;  // kMassPivotTolerance, kPivotTolerance
       const bool opens_pair_sum = contains(line, "jr::v2d ");
       const bool stores_pair = contains(line, "jr::store2(");
       const long long lanes = opens_pair_sum || stores_pair || pair_sum ? 2 : 1;

@@ -107,9 +107,22 @@ constexpr std::int32_t kMColStart[8] = { 0, 7, 13, 18, 22, 25, 27, 28 };
 // User velocity index -> joint (for diagnostics).
 constexpr std::int32_t kDofJoint[7] = { 0, 1, 2, 3, 4, 5, 6 };
 constexpr jr::Model kModel = { 7, 7, 7, kBodies, kDofParent, kDofUser, kMColStart, {0.0, 0.0, -9.81} };
-// A pivot below this fraction of M's diagonal entry means M is singular to
-// working precision (all digits lost): reported, never divided through.
-constexpr double kPivotTolerance = 1e-14;
+// Step 1's per-pivot test (issue 29, item 3: status 0 means at least 6 correct
+// digits).  A pivot d_j of M = L D L^T at or below kMassPivotTolerance M_jj
+// is reported (code 1), never divided through.  d_j / M_jj is the pivot of
+// the scaled S M S, S = diag(M)^-1/2, so it proves cond2(S M S) >= M_jj / d_j;
+// a Cholesky solve's error follows eps cond2(S M S) (Cholesky is invariant to
+// that scaling: van der Sluis; Demmel 1989).  Measured (docs/status.md): the
+// error of qdd is about 1500 eps / min_j (d_j / M_jj) on fixed-base icub
+// towards its zero state (the neck's roll and yaw axes aligning), 1.7e-7 at
+// this limit; about eps / min_j (d_j / M_jj) on a 50-link rope, whose random
+// states reach 4e-5; every real robot's random states stay above 5e-4.
+constexpr double kMassPivotTolerance = 1e-6;
+// Step 3.4's per-pivot test on T^T T: a pivot at or below kPivotTolerance
+// times its diagonal entry (nearly dependent constraint rows) is reported
+// (code 2).  qdd's error grows like 0.4 eps / (d_j / W_jj) on the HMMWV with two
+// rows of a cut made nearly dependent (docs/extreme.md): 5e-8 at this limit.
+constexpr double kPivotTolerance = 1e-9;
 // The digits test on each finished factor, of M (Step 1) and of T^T T
 // (Step 3.4): the smallest pivot against the largest (jr::pivot_spread).  A
 // spread d_min / d_max below 1e-13 proves cond2 > 1e13, where a Cholesky
@@ -185,6 +198,9 @@ int non_finite_matrix(const char* what, const double* A, std::int32_t n) {
 }
 
 int not_positive_definite(std::int32_t dof_lem, double pivot) {
+  if (pivot > 0.0)
+    return fail(kMassNotPositiveDefinite, "mass matrix singular to working precision (pivot below 1e-6 of M_jj)",
+                kDofUser[dof_lem], pivot);
   return fail(kMassNotPositiveDefinite, "mass matrix not positive definite", kDofUser[dof_lem],
               pivot);
 }
@@ -231,7 +247,7 @@ JRGEN_DISPATCH int step1_factor(double* __restrict L, double* __restrict Dinv) {
   // column 0: joint 'joint_7'; 0 descendant(s), 6 ancestor row(s)
   {
     const double d = L[0];
-    if (!(d > kPivotTolerance * L[0])) return not_positive_definite(0, d);
+    if (!(d > kMassPivotTolerance * L[0])) return not_positive_definite(0, d);
     const double l = std::sqrt(d);
     L[0] = l;
     Dinv[0] = l * (1.0 / d);
@@ -242,7 +258,7 @@ JRGEN_DISPATCH int step1_factor(double* __restrict L, double* __restrict Dinv) {
   // column 1: joint 'joint_6'; 1 descendant(s), 5 ancestor row(s)
   {
     const double d = L[7] - L[1] * L[1];
-    if (!(d > kPivotTolerance * L[7])) return not_positive_definite(1, d);
+    if (!(d > kMassPivotTolerance * L[7])) return not_positive_definite(1, d);
     const double l = std::sqrt(d);
     L[7] = l;
     Dinv[1] = l * (1.0 / d);
@@ -253,7 +269,7 @@ JRGEN_DISPATCH int step1_factor(double* __restrict L, double* __restrict Dinv) {
   // column 2: joint 'joint_5'; 2 descendant(s), 4 ancestor row(s)
   {
     const double d = L[13] - (L[2] * L[2] + L[8] * L[8]);
-    if (!(d > kPivotTolerance * L[13])) return not_positive_definite(2, d);
+    if (!(d > kMassPivotTolerance * L[13])) return not_positive_definite(2, d);
     const double l = std::sqrt(d);
     L[13] = l;
     Dinv[2] = l * (1.0 / d);
@@ -263,7 +279,7 @@ JRGEN_DISPATCH int step1_factor(double* __restrict L, double* __restrict Dinv) {
   // column 3: joint 'joint_4'; 3 descendant(s), 3 ancestor row(s)
   {
     const double d = L[18] - (L[3] * L[3] + L[9] * L[9] + L[14] * L[14]);
-    if (!(d > kPivotTolerance * L[18])) return not_positive_definite(3, d);
+    if (!(d > kMassPivotTolerance * L[18])) return not_positive_definite(3, d);
     const double l = std::sqrt(d);
     L[18] = l;
     Dinv[3] = l * (1.0 / d);
@@ -273,7 +289,7 @@ JRGEN_DISPATCH int step1_factor(double* __restrict L, double* __restrict Dinv) {
   // column 4: joint 'joint_3'; 4 descendant(s), 2 ancestor row(s)
   {
     const double d = L[22] - (L[4] * L[4] + L[10] * L[10] + L[15] * L[15] + L[19] * L[19]);
-    if (!(d > kPivotTolerance * L[22])) return not_positive_definite(4, d);
+    if (!(d > kMassPivotTolerance * L[22])) return not_positive_definite(4, d);
     const double l = std::sqrt(d);
     L[22] = l;
     Dinv[4] = l * (1.0 / d);
@@ -282,7 +298,7 @@ JRGEN_DISPATCH int step1_factor(double* __restrict L, double* __restrict Dinv) {
   // column 5: joint 'joint_2'; 5 descendant(s), 1 ancestor row(s)
   {
     const double d = L[25] - (L[5] * L[5] + L[11] * L[11] + L[16] * L[16] + L[20] * L[20] + L[23] * L[23]);
-    if (!(d > kPivotTolerance * L[25])) return not_positive_definite(5, d);
+    if (!(d > kMassPivotTolerance * L[25])) return not_positive_definite(5, d);
     const double l = std::sqrt(d);
     L[25] = l;
     Dinv[5] = l * (1.0 / d);
@@ -291,7 +307,7 @@ JRGEN_DISPATCH int step1_factor(double* __restrict L, double* __restrict Dinv) {
   // column 6: joint 'joint_1'; 6 descendant(s), 0 ancestor row(s)
   {
     const double d = L[27] - (L[6] * L[6] + L[12] * L[12] + L[17] * L[17] + L[21] * L[21] + L[24] * L[24] + L[26] * L[26]);
-    if (!(d > kPivotTolerance * L[27])) return not_positive_definite(6, d);
+    if (!(d > kMassPivotTolerance * L[27])) return not_positive_definite(6, d);
     const double l = std::sqrt(d);
     L[27] = l;
     Dinv[6] = l * (1.0 / d);
@@ -307,7 +323,7 @@ JRGEN_DISPATCH int step1_factor_dense(const double* __restrict M, double* __rest
   // column 0: joint 'joint_7'; 0 descendant(s), 6 ancestor row(s)
   {
     const double d = M[48];
-    if (!(d > kPivotTolerance * M[48])) return not_positive_definite(0, d);
+    if (!(d > kMassPivotTolerance * M[48])) return not_positive_definite(0, d);
     const double l = std::sqrt(d);
     L[0] = l;
     Dinv[0] = l * (1.0 / d);
@@ -318,7 +334,7 @@ JRGEN_DISPATCH int step1_factor_dense(const double* __restrict M, double* __rest
   // column 1: joint 'joint_6'; 1 descendant(s), 5 ancestor row(s)
   {
     const double d = M[40] - L[1] * L[1];
-    if (!(d > kPivotTolerance * M[40])) return not_positive_definite(1, d);
+    if (!(d > kMassPivotTolerance * M[40])) return not_positive_definite(1, d);
     const double l = std::sqrt(d);
     L[7] = l;
     Dinv[1] = l * (1.0 / d);
@@ -329,7 +345,7 @@ JRGEN_DISPATCH int step1_factor_dense(const double* __restrict M, double* __rest
   // column 2: joint 'joint_5'; 2 descendant(s), 4 ancestor row(s)
   {
     const double d = M[32] - (L[2] * L[2] + L[8] * L[8]);
-    if (!(d > kPivotTolerance * M[32])) return not_positive_definite(2, d);
+    if (!(d > kMassPivotTolerance * M[32])) return not_positive_definite(2, d);
     const double l = std::sqrt(d);
     L[13] = l;
     Dinv[2] = l * (1.0 / d);
@@ -339,7 +355,7 @@ JRGEN_DISPATCH int step1_factor_dense(const double* __restrict M, double* __rest
   // column 3: joint 'joint_4'; 3 descendant(s), 3 ancestor row(s)
   {
     const double d = M[24] - (L[3] * L[3] + L[9] * L[9] + L[14] * L[14]);
-    if (!(d > kPivotTolerance * M[24])) return not_positive_definite(3, d);
+    if (!(d > kMassPivotTolerance * M[24])) return not_positive_definite(3, d);
     const double l = std::sqrt(d);
     L[18] = l;
     Dinv[3] = l * (1.0 / d);
@@ -349,7 +365,7 @@ JRGEN_DISPATCH int step1_factor_dense(const double* __restrict M, double* __rest
   // column 4: joint 'joint_3'; 4 descendant(s), 2 ancestor row(s)
   {
     const double d = M[16] - (L[4] * L[4] + L[10] * L[10] + L[15] * L[15] + L[19] * L[19]);
-    if (!(d > kPivotTolerance * M[16])) return not_positive_definite(4, d);
+    if (!(d > kMassPivotTolerance * M[16])) return not_positive_definite(4, d);
     const double l = std::sqrt(d);
     L[22] = l;
     Dinv[4] = l * (1.0 / d);
@@ -358,7 +374,7 @@ JRGEN_DISPATCH int step1_factor_dense(const double* __restrict M, double* __rest
   // column 5: joint 'joint_2'; 5 descendant(s), 1 ancestor row(s)
   {
     const double d = M[8] - (L[5] * L[5] + L[11] * L[11] + L[16] * L[16] + L[20] * L[20] + L[23] * L[23]);
-    if (!(d > kPivotTolerance * M[8])) return not_positive_definite(5, d);
+    if (!(d > kMassPivotTolerance * M[8])) return not_positive_definite(5, d);
     const double l = std::sqrt(d);
     L[25] = l;
     Dinv[5] = l * (1.0 / d);
@@ -367,7 +383,7 @@ JRGEN_DISPATCH int step1_factor_dense(const double* __restrict M, double* __rest
   // column 6: joint 'joint_1'; 6 descendant(s), 0 ancestor row(s)
   {
     const double d = M[0] - (L[6] * L[6] + L[12] * L[12] + L[17] * L[17] + L[21] * L[21] + L[24] * L[24] + L[26] * L[26]);
-    if (!(d > kPivotTolerance * M[0])) return not_positive_definite(6, d);
+    if (!(d > kMassPivotTolerance * M[0])) return not_positive_definite(6, d);
     const double l = std::sqrt(d);
     L[27] = l;
     Dinv[6] = l * (1.0 / d);

@@ -107,9 +107,22 @@ constexpr std::int32_t kMColStart[8] = { 0, 7, 13, 18, 22, 25, 27, 28 };
 // User velocity index -> joint (for diagnostics).
 constexpr std::int32_t kDofJoint[7] = { 0, 1, 2, 3, 4, 5, 6 };
 constexpr jr::Model kModel = { 7, 7, 7, kBodies, kDofParent, kDofUser, kMColStart, {0.0, 0.0, -9.81} };
-// A pivot below this fraction of M's diagonal entry means M is singular to
-// working precision (all digits lost): reported, never divided through.
-constexpr double kPivotTolerance = 1e-14;
+// Step 1's per-pivot test (issue 29, item 3: status 0 means at least 6 correct
+// digits).  A pivot d_j of M = L D L^T at or below kMassPivotTolerance M_jj
+// is reported (code 1), never divided through.  d_j / M_jj is the pivot of
+// the scaled S M S, S = diag(M)^-1/2, so it proves cond2(S M S) >= M_jj / d_j;
+// a Cholesky solve's error follows eps cond2(S M S) (Cholesky is invariant to
+// that scaling: van der Sluis; Demmel 1989).  Measured (docs/status.md): the
+// error of qdd is about 1500 eps / min_j (d_j / M_jj) on fixed-base icub
+// towards its zero state (the neck's roll and yaw axes aligning), 1.7e-7 at
+// this limit; about eps / min_j (d_j / M_jj) on a 50-link rope, whose random
+// states reach 4e-5; every real robot's random states stay above 5e-4.
+constexpr double kMassPivotTolerance = 1e-6;
+// Step 3.4's per-pivot test on T^T T: a pivot at or below kPivotTolerance
+// times its diagonal entry (nearly dependent constraint rows) is reported
+// (code 2).  qdd's error grows like 0.4 eps / (d_j / W_jj) on the HMMWV with two
+// rows of a cut made nearly dependent (docs/extreme.md): 5e-8 at this limit.
+constexpr double kPivotTolerance = 1e-9;
 // The digits test on each finished factor, of M (Step 1) and of T^T T
 // (Step 3.4): the smallest pivot against the largest (jr::pivot_spread).  A
 // spread d_min / d_max below 1e-13 proves cond2 > 1e13, where a Cholesky
@@ -185,6 +198,9 @@ int non_finite_matrix(const char* what, const double* A, std::int32_t n) {
 }
 
 int not_positive_definite(std::int32_t dof_lem, double pivot) {
+  if (pivot > 0.0)
+    return fail(kMassNotPositiveDefinite, "mass matrix singular to working precision (pivot below 1e-6 of M_jj)",
+                kDofUser[dof_lem], pivot);
   return fail(kMassNotPositiveDefinite, "mass matrix not positive definite", kDofUser[dof_lem],
               pivot);
 }
@@ -231,7 +247,7 @@ JRGEN_DISPATCH int step1_factor(double* __restrict L, double* __restrict Dinv) {
   // column 0: joint 'joint_7'; 0 descendant(s), 6 ancestor row(s)
   {
     const double d = L[0];
-    if (!(d > kPivotTolerance * L[0])) return not_positive_definite(0, d);
+    if (!(d > kMassPivotTolerance * L[0])) return not_positive_definite(0, d);
     L[0] = d;
     Dinv[0] = 1.0 / d;
     jr::store2(L + 1, jr::load2(L + 1) * Dinv[0]);
@@ -242,7 +258,7 @@ JRGEN_DISPATCH int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double w0 = L[1] * L[0];
     const double d = L[7] - w0 * L[1];
-    if (!(d > kPivotTolerance * L[7])) return not_positive_definite(1, d);
+    if (!(d > kMassPivotTolerance * L[7])) return not_positive_definite(1, d);
     L[7] = d;
     Dinv[1] = 1.0 / d;
     jr::store2(L + 8, (jr::load2(L + 8) - w0 * jr::load2(L + 2)) * Dinv[1]);
@@ -254,7 +270,7 @@ JRGEN_DISPATCH int step1_factor(double* __restrict L, double* __restrict Dinv) {
     const double w0 = L[2] * L[0];
     const double w1 = L[8] * L[7];
     const double d = L[13] - (w0 * L[2] + w1 * L[8]);
-    if (!(d > kPivotTolerance * L[13])) return not_positive_definite(2, d);
+    if (!(d > kMassPivotTolerance * L[13])) return not_positive_definite(2, d);
     L[13] = d;
     Dinv[2] = 1.0 / d;
     jr::store2(L + 14, (jr::load2(L + 14) - (w0 * jr::load2(L + 3) + w1 * jr::load2(L + 9))) * Dinv[2]);
@@ -266,7 +282,7 @@ JRGEN_DISPATCH int step1_factor(double* __restrict L, double* __restrict Dinv) {
     const double w1 = L[9] * L[7];
     const double w2 = L[14] * L[13];
     const double d = L[18] - (w0 * L[3] + w1 * L[9] + w2 * L[14]);
-    if (!(d > kPivotTolerance * L[18])) return not_positive_definite(3, d);
+    if (!(d > kMassPivotTolerance * L[18])) return not_positive_definite(3, d);
     L[18] = d;
     Dinv[3] = 1.0 / d;
     jr::store2(L + 19, (jr::load2(L + 19) - (w0 * jr::load2(L + 4) + w1 * jr::load2(L + 10) + w2 * jr::load2(L + 15))) * Dinv[3]);
@@ -279,7 +295,7 @@ JRGEN_DISPATCH int step1_factor(double* __restrict L, double* __restrict Dinv) {
     const double w2 = L[15] * L[13];
     const double w3 = L[19] * L[18];
     const double d = L[22] - (w0 * L[4] + w1 * L[10] + w2 * L[15] + w3 * L[19]);
-    if (!(d > kPivotTolerance * L[22])) return not_positive_definite(4, d);
+    if (!(d > kMassPivotTolerance * L[22])) return not_positive_definite(4, d);
     L[22] = d;
     Dinv[4] = 1.0 / d;
     jr::store2(L + 23, (jr::load2(L + 23) - (w0 * jr::load2(L + 5) + w1 * jr::load2(L + 11) + w2 * jr::load2(L + 16) + w3 * jr::load2(L + 20))) * Dinv[4]);
@@ -292,7 +308,7 @@ JRGEN_DISPATCH int step1_factor(double* __restrict L, double* __restrict Dinv) {
     const double w3 = L[20] * L[18];
     const double w4 = L[23] * L[22];
     const double d = L[25] - (w0 * L[5] + w1 * L[11] + w2 * L[16] + w3 * L[20] + w4 * L[23]);
-    if (!(d > kPivotTolerance * L[25])) return not_positive_definite(5, d);
+    if (!(d > kMassPivotTolerance * L[25])) return not_positive_definite(5, d);
     L[25] = d;
     Dinv[5] = 1.0 / d;
     L[26] = (L[26] - (w0 * L[6] + w1 * L[12] + w2 * L[17] + w3 * L[21] + w4 * L[24])) * Dinv[5];
@@ -306,7 +322,7 @@ JRGEN_DISPATCH int step1_factor(double* __restrict L, double* __restrict Dinv) {
     const double w4 = L[24] * L[22];
     const double w5 = L[26] * L[25];
     const double d = L[27] - (w0 * L[6] + w1 * L[12] + w2 * L[17] + w3 * L[21] + w4 * L[24] + w5 * L[26]);
-    if (!(d > kPivotTolerance * L[27])) return not_positive_definite(6, d);
+    if (!(d > kMassPivotTolerance * L[27])) return not_positive_definite(6, d);
     L[27] = d;
     Dinv[6] = 1.0 / d;
   }
@@ -321,7 +337,7 @@ JRGEN_DISPATCH int step1_factor_dense(const double* __restrict M, double* __rest
   // column 0: joint 'joint_7'; 0 descendant(s), 6 ancestor row(s)
   {
     const double d = M[48];
-    if (!(d > kPivotTolerance * M[48])) return not_positive_definite(0, d);
+    if (!(d > kMassPivotTolerance * M[48])) return not_positive_definite(0, d);
     L[0] = d;
     Dinv[0] = 1.0 / d;
     jr::store2(L + 1, jr::set2(M[47], M[46]) * Dinv[0]);
@@ -332,7 +348,7 @@ JRGEN_DISPATCH int step1_factor_dense(const double* __restrict M, double* __rest
   {
     const double w0 = L[1] * L[0];
     const double d = M[40] - w0 * L[1];
-    if (!(d > kPivotTolerance * M[40])) return not_positive_definite(1, d);
+    if (!(d > kMassPivotTolerance * M[40])) return not_positive_definite(1, d);
     L[7] = d;
     Dinv[1] = 1.0 / d;
     jr::store2(L + 8, (jr::set2(M[39], M[38]) - w0 * jr::load2(L + 2)) * Dinv[1]);
@@ -344,7 +360,7 @@ JRGEN_DISPATCH int step1_factor_dense(const double* __restrict M, double* __rest
     const double w0 = L[2] * L[0];
     const double w1 = L[8] * L[7];
     const double d = M[32] - (w0 * L[2] + w1 * L[8]);
-    if (!(d > kPivotTolerance * M[32])) return not_positive_definite(2, d);
+    if (!(d > kMassPivotTolerance * M[32])) return not_positive_definite(2, d);
     L[13] = d;
     Dinv[2] = 1.0 / d;
     jr::store2(L + 14, (jr::set2(M[31], M[30]) - (w0 * jr::load2(L + 3) + w1 * jr::load2(L + 9))) * Dinv[2]);
@@ -356,7 +372,7 @@ JRGEN_DISPATCH int step1_factor_dense(const double* __restrict M, double* __rest
     const double w1 = L[9] * L[7];
     const double w2 = L[14] * L[13];
     const double d = M[24] - (w0 * L[3] + w1 * L[9] + w2 * L[14]);
-    if (!(d > kPivotTolerance * M[24])) return not_positive_definite(3, d);
+    if (!(d > kMassPivotTolerance * M[24])) return not_positive_definite(3, d);
     L[18] = d;
     Dinv[3] = 1.0 / d;
     jr::store2(L + 19, (jr::set2(M[23], M[22]) - (w0 * jr::load2(L + 4) + w1 * jr::load2(L + 10) + w2 * jr::load2(L + 15))) * Dinv[3]);
@@ -369,7 +385,7 @@ JRGEN_DISPATCH int step1_factor_dense(const double* __restrict M, double* __rest
     const double w2 = L[15] * L[13];
     const double w3 = L[19] * L[18];
     const double d = M[16] - (w0 * L[4] + w1 * L[10] + w2 * L[15] + w3 * L[19]);
-    if (!(d > kPivotTolerance * M[16])) return not_positive_definite(4, d);
+    if (!(d > kMassPivotTolerance * M[16])) return not_positive_definite(4, d);
     L[22] = d;
     Dinv[4] = 1.0 / d;
     jr::store2(L + 23, (jr::set2(M[15], M[14]) - (w0 * jr::load2(L + 5) + w1 * jr::load2(L + 11) + w2 * jr::load2(L + 16) + w3 * jr::load2(L + 20))) * Dinv[4]);
@@ -382,7 +398,7 @@ JRGEN_DISPATCH int step1_factor_dense(const double* __restrict M, double* __rest
     const double w3 = L[20] * L[18];
     const double w4 = L[23] * L[22];
     const double d = M[8] - (w0 * L[5] + w1 * L[11] + w2 * L[16] + w3 * L[20] + w4 * L[23]);
-    if (!(d > kPivotTolerance * M[8])) return not_positive_definite(5, d);
+    if (!(d > kMassPivotTolerance * M[8])) return not_positive_definite(5, d);
     L[25] = d;
     Dinv[5] = 1.0 / d;
     L[26] = (M[7] - (w0 * L[6] + w1 * L[12] + w2 * L[17] + w3 * L[21] + w4 * L[24])) * Dinv[5];
@@ -396,7 +412,7 @@ JRGEN_DISPATCH int step1_factor_dense(const double* __restrict M, double* __rest
     const double w4 = L[24] * L[22];
     const double w5 = L[26] * L[25];
     const double d = M[0] - (w0 * L[6] + w1 * L[12] + w2 * L[17] + w3 * L[21] + w4 * L[24] + w5 * L[26]);
-    if (!(d > kPivotTolerance * M[0])) return not_positive_definite(6, d);
+    if (!(d > kMassPivotTolerance * M[0])) return not_positive_definite(6, d);
     L[27] = d;
     Dinv[6] = 1.0 / d;
   }

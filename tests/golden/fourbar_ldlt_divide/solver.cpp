@@ -98,9 +98,22 @@ const char* const kRowLabel[2] = {
 // Elimination position of Step 3.4 -> kept row (user order).
 constexpr std::int32_t kSchurOrder[2] = { 0, 1 };
 
-// A pivot below this fraction of M's diagonal entry means M is singular to
-// working precision (all digits lost): reported, never divided through.
-constexpr double kPivotTolerance = 1e-14;
+// Step 1's per-pivot test (issue 29, item 3: status 0 means at least 6 correct
+// digits).  A pivot d_j of M = L D L^T at or below kMassPivotTolerance M_jj
+// is reported (code 1), never divided through.  d_j / M_jj is the pivot of
+// the scaled S M S, S = diag(M)^-1/2, so it proves cond2(S M S) >= M_jj / d_j;
+// a Cholesky solve's error follows eps cond2(S M S) (Cholesky is invariant to
+// that scaling: van der Sluis; Demmel 1989).  Measured (docs/status.md): the
+// error of qdd is about 1500 eps / min_j (d_j / M_jj) on fixed-base icub
+// towards its zero state (the neck's roll and yaw axes aligning), 1.7e-7 at
+// this limit; about eps / min_j (d_j / M_jj) on a 50-link rope, whose random
+// states reach 4e-5; every real robot's random states stay above 5e-4.
+constexpr double kMassPivotTolerance = 1e-6;
+// Step 3.4's per-pivot test on T^T T: a pivot at or below kPivotTolerance
+// times its diagonal entry (nearly dependent constraint rows) is reported
+// (code 2).  qdd's error grows like 0.4 eps / (d_j / W_jj) on the HMMWV with two
+// rows of a cut made nearly dependent (docs/extreme.md): 5e-8 at this limit.
+constexpr double kPivotTolerance = 1e-9;
 // The digits test on each finished factor, of M (Step 1) and of T^T T
 // (Step 3.4): the smallest pivot against the largest (jr::pivot_spread).  A
 // spread d_min / d_max below 1e-13 proves cond2 > 1e13, where a Cholesky
@@ -184,6 +197,9 @@ int non_finite_matrix(const char* what, const double* A, std::int32_t n) {
 }
 
 int not_positive_definite(std::int32_t dof_lem, double pivot) {
+  if (pivot > 0.0)
+    return fail(kMassNotPositiveDefinite, "mass matrix singular to working precision (pivot below 1e-6 of M_jj)",
+                kDofUser[dof_lem], pivot);
   return fail(kMassNotPositiveDefinite, "mass matrix not positive definite", kDofUser[dof_lem],
               pivot);
 }
@@ -233,7 +249,7 @@ JRGEN_DISPATCH int step1_factor(double* __restrict L, double* __restrict Dinv) {
   // column 0: joint 'joint_C'; 0 descendant(s), 2 ancestor row(s)
   {
     const double d = L[0];
-    if (!(d > kPivotTolerance * L[0])) return not_positive_definite(0, d);
+    if (!(d > kMassPivotTolerance * L[0])) return not_positive_definite(0, d);
     L[0] = d;
     Dinv[0] = d;  // the pivot itself, for check_digits_M
   }
@@ -241,7 +257,7 @@ JRGEN_DISPATCH int step1_factor(double* __restrict L, double* __restrict Dinv) {
   {
     const double l0 = L[1] / L[0];
     const double d = L[3] - L[1] * l0;
-    if (!(d > kPivotTolerance * L[3])) return not_positive_definite(1, d);
+    if (!(d > kMassPivotTolerance * L[3])) return not_positive_definite(1, d);
     L[3] = d;
     Dinv[1] = d;  // the pivot itself, for check_digits_M
     L[1] = l0;
@@ -252,7 +268,7 @@ JRGEN_DISPATCH int step1_factor(double* __restrict L, double* __restrict Dinv) {
     const double l0 = L[2] / L[0];
     const double l1 = L[4] / L[3];
     const double d = L[5] - (L[2] * l0 + L[4] * l1);
-    if (!(d > kPivotTolerance * L[5])) return not_positive_definite(2, d);
+    if (!(d > kMassPivotTolerance * L[5])) return not_positive_definite(2, d);
     L[5] = d;
     Dinv[2] = d;  // the pivot itself, for check_digits_M
     L[2] = l0;
@@ -269,7 +285,7 @@ JRGEN_DISPATCH int step1_factor_dense(const double* __restrict M, double* __rest
   // column 0: joint 'joint_C'; 0 descendant(s), 2 ancestor row(s)
   {
     const double d = M[8];
-    if (!(d > kPivotTolerance * M[8])) return not_positive_definite(0, d);
+    if (!(d > kMassPivotTolerance * M[8])) return not_positive_definite(0, d);
     L[0] = d;
     Dinv[0] = d;  // the pivot itself, for check_digits_M
     jr::store2(L + 1, jr::set2(M[7], M[6]));
@@ -278,7 +294,7 @@ JRGEN_DISPATCH int step1_factor_dense(const double* __restrict M, double* __rest
   {
     const double l0 = L[1] / L[0];
     const double d = M[4] - L[1] * l0;
-    if (!(d > kPivotTolerance * M[4])) return not_positive_definite(1, d);
+    if (!(d > kMassPivotTolerance * M[4])) return not_positive_definite(1, d);
     L[3] = d;
     Dinv[1] = d;  // the pivot itself, for check_digits_M
     L[1] = l0;
@@ -289,7 +305,7 @@ JRGEN_DISPATCH int step1_factor_dense(const double* __restrict M, double* __rest
     const double l0 = L[2] / L[0];
     const double l1 = L[4] / L[3];
     const double d = M[0] - (L[2] * l0 + L[4] * l1);
-    if (!(d > kPivotTolerance * M[0])) return not_positive_definite(2, d);
+    if (!(d > kMassPivotTolerance * M[0])) return not_positive_definite(2, d);
     L[5] = d;
     Dinv[2] = d;  // the pivot itself, for check_digits_M
     L[2] = l0;

@@ -169,9 +169,22 @@ constexpr std::int32_t kMColStart[28] = { 0, 10, 19, 27, 34, 44, 53, 61, 68, 78,
 // User velocity index -> joint (for diagnostics).
 constexpr std::int32_t kDofJoint[27] = { 0, 0, 0, 0, 0, 0, 1, 2, 2, 2, 3, 4, 4, 4, 5, 6, 6, 6, 7, 8, 8, 8, 9, 10, 11, 12, 13 };
 constexpr jr::Model kModel = { 14, 32, 27, kBodies, kDofParent, kDofUser, kMColStart, {0.0, 0.0, -9.81} };
-// A pivot below this fraction of M's diagonal entry means M is singular to
-// working precision (all digits lost): reported, never divided through.
-constexpr double kPivotTolerance = 1e-14;
+// Step 1's per-pivot test (issue 29, item 3: status 0 means at least 6 correct
+// digits).  A pivot d_j of M = L D L^T at or below kMassPivotTolerance M_jj
+// is reported (code 1), never divided through.  d_j / M_jj is the pivot of
+// the scaled S M S, S = diag(M)^-1/2, so it proves cond2(S M S) >= M_jj / d_j;
+// a Cholesky solve's error follows eps cond2(S M S) (Cholesky is invariant to
+// that scaling: van der Sluis; Demmel 1989).  Measured (docs/status.md): the
+// error of qdd is about 1500 eps / min_j (d_j / M_jj) on fixed-base icub
+// towards its zero state (the neck's roll and yaw axes aligning), 1.7e-7 at
+// this limit; about eps / min_j (d_j / M_jj) on a 50-link rope, whose random
+// states reach 4e-5; every real robot's random states stay above 5e-4.
+constexpr double kMassPivotTolerance = 1e-6;
+// Step 3.4's per-pivot test on T^T T: a pivot at or below kPivotTolerance
+// times its diagonal entry (nearly dependent constraint rows) is reported
+// (code 2).  qdd's error grows like 0.4 eps / (d_j / W_jj) on the HMMWV with two
+// rows of a cut made nearly dependent (docs/extreme.md): 5e-8 at this limit.
+constexpr double kPivotTolerance = 1e-9;
 // The digits test on each finished factor, of M (Step 1) and of T^T T
 // (Step 3.4): the smallest pivot against the largest (jr::pivot_spread).  A
 // spread d_min / d_max below 1e-13 proves cond2 > 1e13, where a Cholesky
@@ -247,6 +260,9 @@ int non_finite_matrix(const char* what, const double* A, std::int32_t n) {
 }
 
 int not_positive_definite(std::int32_t dof_lem, double pivot) {
+  if (pivot > 0.0)
+    return fail(kMassNotPositiveDefinite, "mass matrix singular to working precision (pivot below 1e-6 of M_jj)",
+                kDofUser[dof_lem], pivot);
   return fail(kMassNotPositiveDefinite, "mass matrix not positive definite", kDofUser[dof_lem],
               pivot);
 }
@@ -350,7 +366,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 0: joint 'rf_upper_ball' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
     const double d = L[0];
-    if (!(d > kPivotTolerance * L[0])) return not_positive_definite(0, d);
+    if (!(d > kMassPivotTolerance * L[0])) return not_positive_definite(0, d);
     const double l = std::sqrt(d);
     L[0] = l;
     Dinv[0] = l * (1.0 / d);
@@ -363,7 +379,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 1: joint 'rf_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
   {
     const double d = L[10] - L[1] * L[1];
-    if (!(d > kPivotTolerance * L[10])) return not_positive_definite(1, d);
+    if (!(d > kMassPivotTolerance * L[10])) return not_positive_definite(1, d);
     const double l = std::sqrt(d);
     L[10] = l;
     Dinv[1] = l * (1.0 / d);
@@ -375,7 +391,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 2: joint 'rf_upper_ball' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
   {
     const double d = L[19] - (L[2] * L[2] + L[11] * L[11]);
-    if (!(d > kPivotTolerance * L[19])) return not_positive_definite(2, d);
+    if (!(d > kMassPivotTolerance * L[19])) return not_positive_definite(2, d);
     const double l = std::sqrt(d);
     L[19] = l;
     Dinv[2] = l * (1.0 / d);
@@ -387,7 +403,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 3: joint 'rf_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
   {
     const double d = L[27] - (L[3] * L[3] + L[12] * L[12] + L[20] * L[20]);
-    if (!(d > kPivotTolerance * L[27])) return not_positive_definite(3, d);
+    if (!(d > kMassPivotTolerance * L[27])) return not_positive_definite(3, d);
     const double l = std::sqrt(d);
     L[27] = l;
     Dinv[3] = l * (1.0 / d);
@@ -398,7 +414,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 4: joint 'lf_upper_ball' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
     const double d = L[34];
-    if (!(d > kPivotTolerance * L[34])) return not_positive_definite(4, d);
+    if (!(d > kMassPivotTolerance * L[34])) return not_positive_definite(4, d);
     const double l = std::sqrt(d);
     L[34] = l;
     Dinv[4] = l * (1.0 / d);
@@ -411,7 +427,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 5: joint 'lf_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
   {
     const double d = L[44] - L[35] * L[35];
-    if (!(d > kPivotTolerance * L[44])) return not_positive_definite(5, d);
+    if (!(d > kMassPivotTolerance * L[44])) return not_positive_definite(5, d);
     const double l = std::sqrt(d);
     L[44] = l;
     Dinv[5] = l * (1.0 / d);
@@ -424,7 +440,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 6: joint 'lf_upper_ball' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
   {
     const double d = L[53] - (L[36] * L[36] + L[45] * L[45]);
-    if (!(d > kPivotTolerance * L[53])) return not_positive_definite(6, d);
+    if (!(d > kMassPivotTolerance * L[53])) return not_positive_definite(6, d);
     const double l = std::sqrt(d);
     L[53] = l;
     Dinv[6] = l * (1.0 / d);
@@ -436,7 +452,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 7: joint 'lf_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
   {
     const double d = L[61] - (L[37] * L[37] + L[46] * L[46] + L[54] * L[54]);
-    if (!(d > kPivotTolerance * L[61])) return not_positive_definite(7, d);
+    if (!(d > kMassPivotTolerance * L[61])) return not_positive_definite(7, d);
     const double l = std::sqrt(d);
     L[61] = l;
     Dinv[7] = l * (1.0 / d);
@@ -447,7 +463,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 8: joint 'rr_upper_ball' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
     const double d = L[68];
-    if (!(d > kPivotTolerance * L[68])) return not_positive_definite(8, d);
+    if (!(d > kMassPivotTolerance * L[68])) return not_positive_definite(8, d);
     const double l = std::sqrt(d);
     L[68] = l;
     Dinv[8] = l * (1.0 / d);
@@ -460,7 +476,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 9: joint 'rr_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
   {
     const double d = L[78] - L[69] * L[69];
-    if (!(d > kPivotTolerance * L[78])) return not_positive_definite(9, d);
+    if (!(d > kMassPivotTolerance * L[78])) return not_positive_definite(9, d);
     const double l = std::sqrt(d);
     L[78] = l;
     Dinv[9] = l * (1.0 / d);
@@ -472,7 +488,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 10: joint 'rr_upper_ball' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
   {
     const double d = L[87] - (L[70] * L[70] + L[79] * L[79]);
-    if (!(d > kPivotTolerance * L[87])) return not_positive_definite(10, d);
+    if (!(d > kMassPivotTolerance * L[87])) return not_positive_definite(10, d);
     const double l = std::sqrt(d);
     L[87] = l;
     Dinv[10] = l * (1.0 / d);
@@ -485,7 +501,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 11: joint 'rr_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
   {
     const double d = L[95] - (L[71] * L[71] + L[80] * L[80] + L[88] * L[88]);
-    if (!(d > kPivotTolerance * L[95])) return not_positive_definite(11, d);
+    if (!(d > kMassPivotTolerance * L[95])) return not_positive_definite(11, d);
     const double l = std::sqrt(d);
     L[95] = l;
     Dinv[11] = l * (1.0 / d);
@@ -496,7 +512,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 12: joint 'lr_upper_ball' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
     const double d = L[102];
-    if (!(d > kPivotTolerance * L[102])) return not_positive_definite(12, d);
+    if (!(d > kMassPivotTolerance * L[102])) return not_positive_definite(12, d);
     const double l = std::sqrt(d);
     L[102] = l;
     Dinv[12] = l * (1.0 / d);
@@ -509,7 +525,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 13: joint 'lr_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
   {
     const double d = L[112] - L[103] * L[103];
-    if (!(d > kPivotTolerance * L[112])) return not_positive_definite(13, d);
+    if (!(d > kMassPivotTolerance * L[112])) return not_positive_definite(13, d);
     const double l = std::sqrt(d);
     L[112] = l;
     Dinv[13] = l * (1.0 / d);
@@ -521,7 +537,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 14: joint 'lr_upper_ball' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
   {
     const double d = L[121] - (L[104] * L[104] + L[113] * L[113]);
-    if (!(d > kPivotTolerance * L[121])) return not_positive_definite(14, d);
+    if (!(d > kMassPivotTolerance * L[121])) return not_positive_definite(14, d);
     const double l = std::sqrt(d);
     L[121] = l;
     Dinv[14] = l * (1.0 / d);
@@ -533,7 +549,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 15: joint 'lr_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
   {
     const double d = L[129] - (L[105] * L[105] + L[114] * L[114] + L[122] * L[122]);
-    if (!(d > kPivotTolerance * L[129])) return not_positive_definite(15, d);
+    if (!(d > kMassPivotTolerance * L[129])) return not_positive_definite(15, d);
     const double l = std::sqrt(d);
     L[129] = l;
     Dinv[15] = l * (1.0 / d);
@@ -545,7 +561,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 16: joint 'rack_slide'; 0 descendant(s), 6 ancestor row(s)
   {
     const double d = L[136];
-    if (!(d > kPivotTolerance * L[136])) return not_positive_definite(16, d);
+    if (!(d > kMassPivotTolerance * L[136])) return not_positive_definite(16, d);
     const double l = std::sqrt(d);
     L[136] = l;
     Dinv[16] = l * (1.0 / d);
@@ -556,7 +572,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 17: joint 'rf_lower_pivot'; 0 descendant(s), 6 ancestor row(s)
   {
     const double d = L[143];
-    if (!(d > kPivotTolerance * L[143])) return not_positive_definite(17, d);
+    if (!(d > kMassPivotTolerance * L[143])) return not_positive_definite(17, d);
     const double l = std::sqrt(d);
     L[143] = l;
     Dinv[17] = l * (1.0 / d);
@@ -567,7 +583,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 18: joint 'lf_lower_pivot'; 0 descendant(s), 6 ancestor row(s)
   {
     const double d = L[150];
-    if (!(d > kPivotTolerance * L[150])) return not_positive_definite(18, d);
+    if (!(d > kMassPivotTolerance * L[150])) return not_positive_definite(18, d);
     const double l = std::sqrt(d);
     L[150] = l;
     Dinv[18] = l * (1.0 / d);
@@ -578,7 +594,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 19: joint 'rr_lower_pivot'; 0 descendant(s), 6 ancestor row(s)
   {
     const double d = L[157];
-    if (!(d > kPivotTolerance * L[157])) return not_positive_definite(19, d);
+    if (!(d > kMassPivotTolerance * L[157])) return not_positive_definite(19, d);
     const double l = std::sqrt(d);
     L[157] = l;
     Dinv[19] = l * (1.0 / d);
@@ -589,7 +605,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 20: joint 'lr_lower_pivot'; 0 descendant(s), 6 ancestor row(s)
   {
     const double d = L[164];
-    if (!(d > kPivotTolerance * L[164])) return not_positive_definite(20, d);
+    if (!(d > kMassPivotTolerance * L[164])) return not_positive_definite(20, d);
     const double l = std::sqrt(d);
     L[164] = l;
     Dinv[20] = l * (1.0 / d);
@@ -603,7 +619,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
     sd += L[72] * L[72] + L[81] * L[81] + L[89] * L[89] + L[96] * L[96] + L[106] * L[106] + L[115] * L[115] + L[123] * L[123] + L[130] * L[130];
     sd += L[137] * L[137] + L[144] * L[144] + L[151] * L[151] + L[158] * L[158] + L[165] * L[165];
     const double d = L[171] - sd;
-    if (!(d > kPivotTolerance * L[171])) return not_positive_definite(21, d);
+    if (!(d > kMassPivotTolerance * L[171])) return not_positive_definite(21, d);
     const double l = std::sqrt(d);
     L[171] = l;
     Dinv[21] = l * (1.0 / d);
@@ -633,7 +649,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
     sd += L[73] * L[73] + L[82] * L[82] + L[90] * L[90] + L[97] * L[97] + L[107] * L[107] + L[116] * L[116] + L[124] * L[124] + L[131] * L[131];
     sd += L[138] * L[138] + L[145] * L[145] + L[152] * L[152] + L[159] * L[159] + L[166] * L[166] + L[172] * L[172];
     const double d = L[177] - sd;
-    if (!(d > kPivotTolerance * L[177])) return not_positive_definite(22, d);
+    if (!(d > kMassPivotTolerance * L[177])) return not_positive_definite(22, d);
     const double l = std::sqrt(d);
     L[177] = l;
     Dinv[22] = l * (1.0 / d);
@@ -657,7 +673,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
     sd += L[74] * L[74] + L[83] * L[83] + L[91] * L[91] + L[98] * L[98] + L[108] * L[108] + L[117] * L[117] + L[125] * L[125] + L[132] * L[132];
     sd += L[139] * L[139] + L[146] * L[146] + L[153] * L[153] + L[160] * L[160] + L[167] * L[167] + L[173] * L[173] + L[178] * L[178];
     const double d = L[182] - sd;
-    if (!(d > kPivotTolerance * L[182])) return not_positive_definite(23, d);
+    if (!(d > kMassPivotTolerance * L[182])) return not_positive_definite(23, d);
     const double l = std::sqrt(d);
     L[182] = l;
     Dinv[23] = l * (1.0 / d);
@@ -681,7 +697,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
     sd += L[75] * L[75] + L[84] * L[84] + L[92] * L[92] + L[99] * L[99] + L[109] * L[109] + L[118] * L[118] + L[126] * L[126] + L[133] * L[133];
     sd += L[140] * L[140] + L[147] * L[147] + L[154] * L[154] + L[161] * L[161] + L[168] * L[168] + L[174] * L[174] + L[179] * L[179] + L[183] * L[183];
     const double d = L[186] - sd;
-    if (!(d > kPivotTolerance * L[186])) return not_positive_definite(24, d);
+    if (!(d > kMassPivotTolerance * L[186])) return not_positive_definite(24, d);
     const double l = std::sqrt(d);
     L[186] = l;
     Dinv[24] = l * (1.0 / d);
@@ -699,7 +715,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
     sd += L[141] * L[141] + L[148] * L[148] + L[155] * L[155] + L[162] * L[162] + L[169] * L[169] + L[175] * L[175] + L[180] * L[180] + L[184] * L[184];
     sd += L[187] * L[187];
     const double d = L[189] - sd;
-    if (!(d > kPivotTolerance * L[189])) return not_positive_definite(25, d);
+    if (!(d > kMassPivotTolerance * L[189])) return not_positive_definite(25, d);
     const double l = std::sqrt(d);
     L[189] = l;
     Dinv[25] = l * (1.0 / d);
@@ -719,7 +735,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
     sd += L[142] * L[142] + L[149] * L[149] + L[156] * L[156] + L[163] * L[163] + L[170] * L[170] + L[176] * L[176] + L[181] * L[181] + L[185] * L[185];
     sd += L[188] * L[188] + L[190] * L[190];
     const double d = L[191] - sd;
-    if (!(d > kPivotTolerance * L[191])) return not_positive_definite(26, d);
+    if (!(d > kMassPivotTolerance * L[191])) return not_positive_definite(26, d);
     const double l = std::sqrt(d);
     L[191] = l;
     Dinv[26] = l * (1.0 / d);
@@ -735,7 +751,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 0: joint 'rf_upper_ball' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
     const double d = M[196];
-    if (!(d > kPivotTolerance * M[196])) return not_positive_definite(0, d);
+    if (!(d > kMassPivotTolerance * M[196])) return not_positive_definite(0, d);
     const double l = std::sqrt(d);
     L[0] = l;
     Dinv[0] = l * (1.0 / d);
@@ -748,7 +764,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 1: joint 'rf_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
   {
     const double d = M[224] - L[1] * L[1];
-    if (!(d > kPivotTolerance * M[224])) return not_positive_definite(1, d);
+    if (!(d > kMassPivotTolerance * M[224])) return not_positive_definite(1, d);
     const double l = std::sqrt(d);
     L[10] = l;
     Dinv[1] = l * (1.0 / d);
@@ -760,7 +776,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 2: joint 'rf_upper_ball' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
   {
     const double d = M[252] - (L[2] * L[2] + L[11] * L[11]);
-    if (!(d > kPivotTolerance * M[252])) return not_positive_definite(2, d);
+    if (!(d > kMassPivotTolerance * M[252])) return not_positive_definite(2, d);
     const double l = std::sqrt(d);
     L[19] = l;
     Dinv[2] = l * (1.0 / d);
@@ -772,7 +788,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 3: joint 'rf_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
   {
     const double d = M[168] - (L[3] * L[3] + L[12] * L[12] + L[20] * L[20]);
-    if (!(d > kPivotTolerance * M[168])) return not_positive_definite(3, d);
+    if (!(d > kMassPivotTolerance * M[168])) return not_positive_definite(3, d);
     const double l = std::sqrt(d);
     L[27] = l;
     Dinv[3] = l * (1.0 / d);
@@ -783,7 +799,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 4: joint 'lf_upper_ball' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
     const double d = M[308];
-    if (!(d > kPivotTolerance * M[308])) return not_positive_definite(4, d);
+    if (!(d > kMassPivotTolerance * M[308])) return not_positive_definite(4, d);
     const double l = std::sqrt(d);
     L[34] = l;
     Dinv[4] = l * (1.0 / d);
@@ -796,7 +812,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 5: joint 'lf_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
   {
     const double d = M[336] - L[35] * L[35];
-    if (!(d > kPivotTolerance * M[336])) return not_positive_definite(5, d);
+    if (!(d > kMassPivotTolerance * M[336])) return not_positive_definite(5, d);
     const double l = std::sqrt(d);
     L[44] = l;
     Dinv[5] = l * (1.0 / d);
@@ -809,7 +825,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 6: joint 'lf_upper_ball' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
   {
     const double d = M[364] - (L[36] * L[36] + L[45] * L[45]);
-    if (!(d > kPivotTolerance * M[364])) return not_positive_definite(6, d);
+    if (!(d > kMassPivotTolerance * M[364])) return not_positive_definite(6, d);
     const double l = std::sqrt(d);
     L[53] = l;
     Dinv[6] = l * (1.0 / d);
@@ -821,7 +837,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 7: joint 'lf_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
   {
     const double d = M[280] - (L[37] * L[37] + L[46] * L[46] + L[54] * L[54]);
-    if (!(d > kPivotTolerance * M[280])) return not_positive_definite(7, d);
+    if (!(d > kMassPivotTolerance * M[280])) return not_positive_definite(7, d);
     const double l = std::sqrt(d);
     L[61] = l;
     Dinv[7] = l * (1.0 / d);
@@ -832,7 +848,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 8: joint 'rr_upper_ball' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
     const double d = M[420];
-    if (!(d > kPivotTolerance * M[420])) return not_positive_definite(8, d);
+    if (!(d > kMassPivotTolerance * M[420])) return not_positive_definite(8, d);
     const double l = std::sqrt(d);
     L[68] = l;
     Dinv[8] = l * (1.0 / d);
@@ -845,7 +861,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 9: joint 'rr_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
   {
     const double d = M[448] - L[69] * L[69];
-    if (!(d > kPivotTolerance * M[448])) return not_positive_definite(9, d);
+    if (!(d > kMassPivotTolerance * M[448])) return not_positive_definite(9, d);
     const double l = std::sqrt(d);
     L[78] = l;
     Dinv[9] = l * (1.0 / d);
@@ -857,7 +873,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 10: joint 'rr_upper_ball' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
   {
     const double d = M[476] - (L[70] * L[70] + L[79] * L[79]);
-    if (!(d > kPivotTolerance * M[476])) return not_positive_definite(10, d);
+    if (!(d > kMassPivotTolerance * M[476])) return not_positive_definite(10, d);
     const double l = std::sqrt(d);
     L[87] = l;
     Dinv[10] = l * (1.0 / d);
@@ -870,7 +886,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 11: joint 'rr_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
   {
     const double d = M[392] - (L[71] * L[71] + L[80] * L[80] + L[88] * L[88]);
-    if (!(d > kPivotTolerance * M[392])) return not_positive_definite(11, d);
+    if (!(d > kMassPivotTolerance * M[392])) return not_positive_definite(11, d);
     const double l = std::sqrt(d);
     L[95] = l;
     Dinv[11] = l * (1.0 / d);
@@ -881,7 +897,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 12: joint 'lr_upper_ball' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
     const double d = M[532];
-    if (!(d > kPivotTolerance * M[532])) return not_positive_definite(12, d);
+    if (!(d > kMassPivotTolerance * M[532])) return not_positive_definite(12, d);
     const double l = std::sqrt(d);
     L[102] = l;
     Dinv[12] = l * (1.0 / d);
@@ -894,7 +910,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 13: joint 'lr_upper_ball' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
   {
     const double d = M[560] - L[103] * L[103];
-    if (!(d > kPivotTolerance * M[560])) return not_positive_definite(13, d);
+    if (!(d > kMassPivotTolerance * M[560])) return not_positive_definite(13, d);
     const double l = std::sqrt(d);
     L[112] = l;
     Dinv[13] = l * (1.0 / d);
@@ -906,7 +922,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 14: joint 'lr_upper_ball' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
   {
     const double d = M[588] - (L[104] * L[104] + L[113] * L[113]);
-    if (!(d > kPivotTolerance * M[588])) return not_positive_definite(14, d);
+    if (!(d > kMassPivotTolerance * M[588])) return not_positive_definite(14, d);
     const double l = std::sqrt(d);
     L[121] = l;
     Dinv[14] = l * (1.0 / d);
@@ -918,7 +934,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 15: joint 'lr_upper_pivot'; 3 descendant(s), 6 ancestor row(s)
   {
     const double d = M[504] - (L[105] * L[105] + L[114] * L[114] + L[122] * L[122]);
-    if (!(d > kPivotTolerance * M[504])) return not_positive_definite(15, d);
+    if (!(d > kMassPivotTolerance * M[504])) return not_positive_definite(15, d);
     const double l = std::sqrt(d);
     L[129] = l;
     Dinv[15] = l * (1.0 / d);
@@ -930,7 +946,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 16: joint 'rack_slide'; 0 descendant(s), 6 ancestor row(s)
   {
     const double d = M[616];
-    if (!(d > kPivotTolerance * M[616])) return not_positive_definite(16, d);
+    if (!(d > kMassPivotTolerance * M[616])) return not_positive_definite(16, d);
     const double l = std::sqrt(d);
     L[136] = l;
     Dinv[16] = l * (1.0 / d);
@@ -941,7 +957,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 17: joint 'rf_lower_pivot'; 0 descendant(s), 6 ancestor row(s)
   {
     const double d = M[644];
-    if (!(d > kPivotTolerance * M[644])) return not_positive_definite(17, d);
+    if (!(d > kMassPivotTolerance * M[644])) return not_positive_definite(17, d);
     const double l = std::sqrt(d);
     L[143] = l;
     Dinv[17] = l * (1.0 / d);
@@ -952,7 +968,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 18: joint 'lf_lower_pivot'; 0 descendant(s), 6 ancestor row(s)
   {
     const double d = M[672];
-    if (!(d > kPivotTolerance * M[672])) return not_positive_definite(18, d);
+    if (!(d > kMassPivotTolerance * M[672])) return not_positive_definite(18, d);
     const double l = std::sqrt(d);
     L[150] = l;
     Dinv[18] = l * (1.0 / d);
@@ -963,7 +979,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 19: joint 'rr_lower_pivot'; 0 descendant(s), 6 ancestor row(s)
   {
     const double d = M[700];
-    if (!(d > kPivotTolerance * M[700])) return not_positive_definite(19, d);
+    if (!(d > kMassPivotTolerance * M[700])) return not_positive_definite(19, d);
     const double l = std::sqrt(d);
     L[157] = l;
     Dinv[19] = l * (1.0 / d);
@@ -974,7 +990,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 20: joint 'lr_lower_pivot'; 0 descendant(s), 6 ancestor row(s)
   {
     const double d = M[728];
-    if (!(d > kPivotTolerance * M[728])) return not_positive_definite(20, d);
+    if (!(d > kMassPivotTolerance * M[728])) return not_positive_definite(20, d);
     const double l = std::sqrt(d);
     L[164] = l;
     Dinv[20] = l * (1.0 / d);
@@ -988,7 +1004,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
     sd += L[72] * L[72] + L[81] * L[81] + L[89] * L[89] + L[96] * L[96] + L[106] * L[106] + L[115] * L[115] + L[123] * L[123] + L[130] * L[130];
     sd += L[137] * L[137] + L[144] * L[144] + L[151] * L[151] + L[158] * L[158] + L[165] * L[165];
     const double d = M[0] - sd;
-    if (!(d > kPivotTolerance * M[0])) return not_positive_definite(21, d);
+    if (!(d > kMassPivotTolerance * M[0])) return not_positive_definite(21, d);
     const double l = std::sqrt(d);
     L[171] = l;
     Dinv[21] = l * (1.0 / d);
@@ -1018,7 +1034,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
     sd += L[73] * L[73] + L[82] * L[82] + L[90] * L[90] + L[97] * L[97] + L[107] * L[107] + L[116] * L[116] + L[124] * L[124] + L[131] * L[131];
     sd += L[138] * L[138] + L[145] * L[145] + L[152] * L[152] + L[159] * L[159] + L[166] * L[166] + L[172] * L[172];
     const double d = M[28] - sd;
-    if (!(d > kPivotTolerance * M[28])) return not_positive_definite(22, d);
+    if (!(d > kMassPivotTolerance * M[28])) return not_positive_definite(22, d);
     const double l = std::sqrt(d);
     L[177] = l;
     Dinv[22] = l * (1.0 / d);
@@ -1042,7 +1058,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
     sd += L[74] * L[74] + L[83] * L[83] + L[91] * L[91] + L[98] * L[98] + L[108] * L[108] + L[117] * L[117] + L[125] * L[125] + L[132] * L[132];
     sd += L[139] * L[139] + L[146] * L[146] + L[153] * L[153] + L[160] * L[160] + L[167] * L[167] + L[173] * L[173] + L[178] * L[178];
     const double d = M[56] - sd;
-    if (!(d > kPivotTolerance * M[56])) return not_positive_definite(23, d);
+    if (!(d > kMassPivotTolerance * M[56])) return not_positive_definite(23, d);
     const double l = std::sqrt(d);
     L[182] = l;
     Dinv[23] = l * (1.0 / d);
@@ -1066,7 +1082,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
     sd += L[75] * L[75] + L[84] * L[84] + L[92] * L[92] + L[99] * L[99] + L[109] * L[109] + L[118] * L[118] + L[126] * L[126] + L[133] * L[133];
     sd += L[140] * L[140] + L[147] * L[147] + L[154] * L[154] + L[161] * L[161] + L[168] * L[168] + L[174] * L[174] + L[179] * L[179] + L[183] * L[183];
     const double d = M[84] - sd;
-    if (!(d > kPivotTolerance * M[84])) return not_positive_definite(24, d);
+    if (!(d > kMassPivotTolerance * M[84])) return not_positive_definite(24, d);
     const double l = std::sqrt(d);
     L[186] = l;
     Dinv[24] = l * (1.0 / d);
@@ -1084,7 +1100,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
     sd += L[141] * L[141] + L[148] * L[148] + L[155] * L[155] + L[162] * L[162] + L[169] * L[169] + L[175] * L[175] + L[180] * L[180] + L[184] * L[184];
     sd += L[187] * L[187];
     const double d = M[112] - sd;
-    if (!(d > kPivotTolerance * M[112])) return not_positive_definite(25, d);
+    if (!(d > kMassPivotTolerance * M[112])) return not_positive_definite(25, d);
     const double l = std::sqrt(d);
     L[189] = l;
     Dinv[25] = l * (1.0 / d);
@@ -1104,7 +1120,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
     sd += L[142] * L[142] + L[149] * L[149] + L[156] * L[156] + L[163] * L[163] + L[170] * L[170] + L[176] * L[176] + L[181] * L[181] + L[185] * L[185];
     sd += L[188] * L[188] + L[190] * L[190];
     const double d = M[140] - sd;
-    if (!(d > kPivotTolerance * M[140])) return not_positive_definite(26, d);
+    if (!(d > kMassPivotTolerance * M[140])) return not_positive_definite(26, d);
     const double l = std::sqrt(d);
     L[191] = l;
     Dinv[26] = l * (1.0 / d);
@@ -6712,12 +6728,18 @@ JRGEN_DISPATCH void articulated_terms(const double* q, const double* v, const do
   articulated_terms_part(q, v, tau, qdd, D);
 }
 
-// Status 1 when a pivot D_j is not positive (M not positive definite) or the
-// pivots' spread d_min / d_max is below kSpreadLimit (M singular to working
-// precision: Step 1's digits test on the same pivots); 3 for a non-finite qdd.
+// Upper bounds of M's diagonal entries over all configurations, Lemma 2 order
+// (0: none): a pivot D_j must exceed kMassPivotTolerance times its entry, as
+// in Step 1, where M_jj itself is at hand (docs/status.md).
+constexpr double kMassDiagonalBound[27] = { 25.3125, 25.3125, 25.3125, 50.55387841103744, 25.3125, 25.3125, 25.3125, 50.55387841103744, 25.3125, 25.3125, 25.3125, 50.55387841103744, 25.3125, 25.3125, 25.3125, 50.55387841103744, 5, 2.0949, 2.0949, 2.0949, 2.0949, 2405, 2405, 2405, 0, 0, 0 };
+// Status 1 when a pivot D_j is not above kMassPivotTolerance * kMassDiagonalBound[j]
+// (M not positive definite, or fewer than 6 digits left) or the pivots' spread
+// d_min / d_max is below kSpreadLimit (Step 1's digits test on the same pivots);
+// 3 for a non-finite qdd.
 JRGEN_DISPATCH int check_articulated(const double* D, const double* qdd) {
   for (std::int32_t j = 0; j < nv; ++j)
-    if (!(D[j] > 0.0)) return not_positive_definite(j, D[j]);
+    if (!(D[j] > 0.0) || !(D[j] > kMassPivotTolerance * kMassDiagonalBound[j]))
+      return not_positive_definite(j, D[j]);
   double ratio = 0.0;
   const std::int32_t j = jr::pivot_spread(D, nv, false, 1, kSpreadLimit, &ratio);
   if (j >= 0)

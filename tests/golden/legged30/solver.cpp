@@ -178,9 +178,22 @@ constexpr std::int32_t kMColStart[31] = { 0, 10, 19, 27, 38, 48, 57, 65, 76, 86,
 // User velocity index -> joint (for diagnostics).
 constexpr std::int32_t kDofJoint[30] = { 0, 0, 0, 0, 0, 0, 1, 2, 2, 2, 3, 3, 3, 4, 5, 5, 5, 6, 7, 7, 7, 8, 9, 10, 11, 11, 11, 12, 13, 14 };
 constexpr jr::Model kModel = { 15, 36, 30, kBodies, kDofParent, kDofUser, kMColStart, {0.0, 0.0, -9.81} };
-// A pivot below this fraction of M's diagonal entry means M is singular to
-// working precision (all digits lost): reported, never divided through.
-constexpr double kPivotTolerance = 1e-14;
+// Step 1's per-pivot test (issue 29, item 3: status 0 means at least 6 correct
+// digits).  A pivot d_j of M = L D L^T at or below kMassPivotTolerance M_jj
+// is reported (code 1), never divided through.  d_j / M_jj is the pivot of
+// the scaled S M S, S = diag(M)^-1/2, so it proves cond2(S M S) >= M_jj / d_j;
+// a Cholesky solve's error follows eps cond2(S M S) (Cholesky is invariant to
+// that scaling: van der Sluis; Demmel 1989).  Measured (docs/status.md): the
+// error of qdd is about 1500 eps / min_j (d_j / M_jj) on fixed-base icub
+// towards its zero state (the neck's roll and yaw axes aligning), 1.7e-7 at
+// this limit; about eps / min_j (d_j / M_jj) on a 50-link rope, whose random
+// states reach 4e-5; every real robot's random states stay above 5e-4.
+constexpr double kMassPivotTolerance = 1e-6;
+// Step 3.4's per-pivot test on T^T T: a pivot at or below kPivotTolerance
+// times its diagonal entry (nearly dependent constraint rows) is reported
+// (code 2).  qdd's error grows like 0.4 eps / (d_j / W_jj) on the HMMWV with two
+// rows of a cut made nearly dependent (docs/extreme.md): 5e-8 at this limit.
+constexpr double kPivotTolerance = 1e-9;
 // The digits test on each finished factor, of M (Step 1) and of T^T T
 // (Step 3.4): the smallest pivot against the largest (jr::pivot_spread).  A
 // spread d_min / d_max below 1e-13 proves cond2 > 1e13, where a Cholesky
@@ -256,6 +269,9 @@ int non_finite_matrix(const char* what, const double* A, std::int32_t n) {
 }
 
 int not_positive_definite(std::int32_t dof_lem, double pivot) {
+  if (pivot > 0.0)
+    return fail(kMassNotPositiveDefinite, "mass matrix singular to working precision (pivot below 1e-6 of M_jj)",
+                kDofUser[dof_lem], pivot);
   return fail(kMassNotPositiveDefinite, "mass matrix not positive definite", kDofUser[dof_lem],
               pivot);
 }
@@ -365,7 +381,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 0: joint 'neck' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
     const double d = L[0];
-    if (!(d > kPivotTolerance * L[0])) return not_positive_definite(0, d);
+    if (!(d > kMassPivotTolerance * L[0])) return not_positive_definite(0, d);
     const double l = std::sqrt(d);
     L[0] = l;
     Dinv[0] = l * (1.0 / d);
@@ -378,7 +394,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 1: joint 'neck' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
   {
     const double d = L[10] - L[1] * L[1];
-    if (!(d > kPivotTolerance * L[10])) return not_positive_definite(1, d);
+    if (!(d > kMassPivotTolerance * L[10])) return not_positive_definite(1, d);
     const double l = std::sqrt(d);
     L[10] = l;
     Dinv[1] = l * (1.0 / d);
@@ -390,7 +406,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 2: joint 'neck' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
   {
     const double d = L[19] - (L[2] * L[2] + L[11] * L[11]);
-    if (!(d > kPivotTolerance * L[19])) return not_positive_definite(2, d);
+    if (!(d > kMassPivotTolerance * L[19])) return not_positive_definite(2, d);
     const double l = std::sqrt(d);
     L[19] = l;
     Dinv[2] = l * (1.0 / d);
@@ -402,7 +418,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 3: joint 'left_elbow'; 0 descendant(s), 10 ancestor row(s)
   {
     const double d = L[27];
-    if (!(d > kPivotTolerance * L[27])) return not_positive_definite(3, d);
+    if (!(d > kMassPivotTolerance * L[27])) return not_positive_definite(3, d);
     const double l = std::sqrt(d);
     L[27] = l;
     Dinv[3] = l * (1.0 / d);
@@ -415,7 +431,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 4: joint 'left_shoulder' (coordinate 1 of 3); 1 descendant(s), 9 ancestor row(s)
   {
     const double d = L[38] - L[28] * L[28];
-    if (!(d > kPivotTolerance * L[38])) return not_positive_definite(4, d);
+    if (!(d > kMassPivotTolerance * L[38])) return not_positive_definite(4, d);
     const double l = std::sqrt(d);
     L[38] = l;
     Dinv[4] = l * (1.0 / d);
@@ -428,7 +444,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 5: joint 'left_shoulder' (coordinate 2 of 3); 2 descendant(s), 8 ancestor row(s)
   {
     const double d = L[48] - (L[29] * L[29] + L[39] * L[39]);
-    if (!(d > kPivotTolerance * L[48])) return not_positive_definite(5, d);
+    if (!(d > kMassPivotTolerance * L[48])) return not_positive_definite(5, d);
     const double l = std::sqrt(d);
     L[48] = l;
     Dinv[5] = l * (1.0 / d);
@@ -441,7 +457,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 6: joint 'left_shoulder' (coordinate 3 of 3); 3 descendant(s), 7 ancestor row(s)
   {
     const double d = L[57] - (L[30] * L[30] + L[40] * L[40] + L[49] * L[49]);
-    if (!(d > kPivotTolerance * L[57])) return not_positive_definite(6, d);
+    if (!(d > kMassPivotTolerance * L[57])) return not_positive_definite(6, d);
     const double l = std::sqrt(d);
     L[57] = l;
     Dinv[6] = l * (1.0 / d);
@@ -453,7 +469,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 7: joint 'right_elbow'; 0 descendant(s), 10 ancestor row(s)
   {
     const double d = L[65];
-    if (!(d > kPivotTolerance * L[65])) return not_positive_definite(7, d);
+    if (!(d > kMassPivotTolerance * L[65])) return not_positive_definite(7, d);
     const double l = std::sqrt(d);
     L[65] = l;
     Dinv[7] = l * (1.0 / d);
@@ -466,7 +482,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 8: joint 'right_shoulder' (coordinate 1 of 3); 1 descendant(s), 9 ancestor row(s)
   {
     const double d = L[76] - L[66] * L[66];
-    if (!(d > kPivotTolerance * L[76])) return not_positive_definite(8, d);
+    if (!(d > kMassPivotTolerance * L[76])) return not_positive_definite(8, d);
     const double l = std::sqrt(d);
     L[76] = l;
     Dinv[8] = l * (1.0 / d);
@@ -479,7 +495,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 9: joint 'right_shoulder' (coordinate 2 of 3); 2 descendant(s), 8 ancestor row(s)
   {
     const double d = L[86] - (L[67] * L[67] + L[77] * L[77]);
-    if (!(d > kPivotTolerance * L[86])) return not_positive_definite(9, d);
+    if (!(d > kMassPivotTolerance * L[86])) return not_positive_definite(9, d);
     const double l = std::sqrt(d);
     L[86] = l;
     Dinv[9] = l * (1.0 / d);
@@ -491,7 +507,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 10: joint 'right_shoulder' (coordinate 3 of 3); 3 descendant(s), 7 ancestor row(s)
   {
     const double d = L[95] - (L[68] * L[68] + L[78] * L[78] + L[87] * L[87]);
-    if (!(d > kPivotTolerance * L[95])) return not_positive_definite(10, d);
+    if (!(d > kMassPivotTolerance * L[95])) return not_positive_definite(10, d);
     const double l = std::sqrt(d);
     L[95] = l;
     Dinv[10] = l * (1.0 / d);
@@ -506,7 +522,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
     double sd = L[3] * L[3] + L[12] * L[12] + L[20] * L[20] + L[31] * L[31] + L[41] * L[41] + L[50] * L[50] + L[58] * L[58] + L[69] * L[69];
     sd += L[79] * L[79] + L[88] * L[88] + L[96] * L[96];
     const double d = L[103] - sd;
-    if (!(d > kPivotTolerance * L[103])) return not_positive_definite(11, d);
+    if (!(d > kMassPivotTolerance * L[103])) return not_positive_definite(11, d);
     const double l = std::sqrt(d);
     L[103] = l;
     Dinv[11] = l * (1.0 / d);
@@ -529,7 +545,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 12: joint 'left_ankle_roll'; 0 descendant(s), 11 ancestor row(s)
   {
     const double d = L[110];
-    if (!(d > kPivotTolerance * L[110])) return not_positive_definite(12, d);
+    if (!(d > kMassPivotTolerance * L[110])) return not_positive_definite(12, d);
     const double l = std::sqrt(d);
     L[110] = l;
     Dinv[12] = l * (1.0 / d);
@@ -543,7 +559,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 13: joint 'left_ankle_pitch'; 1 descendant(s), 10 ancestor row(s)
   {
     const double d = L[122] - L[111] * L[111];
-    if (!(d > kPivotTolerance * L[122])) return not_positive_definite(13, d);
+    if (!(d > kMassPivotTolerance * L[122])) return not_positive_definite(13, d);
     const double l = std::sqrt(d);
     L[122] = l;
     Dinv[13] = l * (1.0 / d);
@@ -557,7 +573,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 14: joint 'left_knee'; 2 descendant(s), 9 ancestor row(s)
   {
     const double d = L[133] - (L[112] * L[112] + L[123] * L[123]);
-    if (!(d > kPivotTolerance * L[133])) return not_positive_definite(14, d);
+    if (!(d > kMassPivotTolerance * L[133])) return not_positive_definite(14, d);
     const double l = std::sqrt(d);
     L[133] = l;
     Dinv[14] = l * (1.0 / d);
@@ -570,7 +586,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 15: joint 'left_hip' (coordinate 1 of 3); 3 descendant(s), 8 ancestor row(s)
   {
     const double d = L[143] - (L[113] * L[113] + L[124] * L[124] + L[134] * L[134]);
-    if (!(d > kPivotTolerance * L[143])) return not_positive_definite(15, d);
+    if (!(d > kMassPivotTolerance * L[143])) return not_positive_definite(15, d);
     const double l = std::sqrt(d);
     L[143] = l;
     Dinv[15] = l * (1.0 / d);
@@ -582,7 +598,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 16: joint 'left_hip' (coordinate 2 of 3); 4 descendant(s), 7 ancestor row(s)
   {
     const double d = L[152] - (L[114] * L[114] + L[125] * L[125] + L[135] * L[135] + L[144] * L[144]);
-    if (!(d > kPivotTolerance * L[152])) return not_positive_definite(16, d);
+    if (!(d > kMassPivotTolerance * L[152])) return not_positive_definite(16, d);
     const double l = std::sqrt(d);
     L[152] = l;
     Dinv[16] = l * (1.0 / d);
@@ -595,7 +611,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 17: joint 'left_hip' (coordinate 3 of 3); 5 descendant(s), 6 ancestor row(s)
   {
     const double d = L[160] - (L[115] * L[115] + L[126] * L[126] + L[136] * L[136] + L[145] * L[145] + L[153] * L[153]);
-    if (!(d > kPivotTolerance * L[160])) return not_positive_definite(17, d);
+    if (!(d > kMassPivotTolerance * L[160])) return not_positive_definite(17, d);
     const double l = std::sqrt(d);
     L[160] = l;
     Dinv[17] = l * (1.0 / d);
@@ -606,7 +622,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 18: joint 'right_ankle_roll'; 0 descendant(s), 11 ancestor row(s)
   {
     const double d = L[167];
-    if (!(d > kPivotTolerance * L[167])) return not_positive_definite(18, d);
+    if (!(d > kMassPivotTolerance * L[167])) return not_positive_definite(18, d);
     const double l = std::sqrt(d);
     L[167] = l;
     Dinv[18] = l * (1.0 / d);
@@ -620,7 +636,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 19: joint 'right_ankle_pitch'; 1 descendant(s), 10 ancestor row(s)
   {
     const double d = L[179] - L[168] * L[168];
-    if (!(d > kPivotTolerance * L[179])) return not_positive_definite(19, d);
+    if (!(d > kMassPivotTolerance * L[179])) return not_positive_definite(19, d);
     const double l = std::sqrt(d);
     L[179] = l;
     Dinv[19] = l * (1.0 / d);
@@ -633,7 +649,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 20: joint 'right_knee'; 2 descendant(s), 9 ancestor row(s)
   {
     const double d = L[190] - (L[169] * L[169] + L[180] * L[180]);
-    if (!(d > kPivotTolerance * L[190])) return not_positive_definite(20, d);
+    if (!(d > kMassPivotTolerance * L[190])) return not_positive_definite(20, d);
     const double l = std::sqrt(d);
     L[190] = l;
     Dinv[20] = l * (1.0 / d);
@@ -647,7 +663,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 21: joint 'right_hip' (coordinate 1 of 3); 3 descendant(s), 8 ancestor row(s)
   {
     const double d = L[200] - (L[170] * L[170] + L[181] * L[181] + L[191] * L[191]);
-    if (!(d > kPivotTolerance * L[200])) return not_positive_definite(21, d);
+    if (!(d > kMassPivotTolerance * L[200])) return not_positive_definite(21, d);
     const double l = std::sqrt(d);
     L[200] = l;
     Dinv[21] = l * (1.0 / d);
@@ -659,7 +675,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 22: joint 'right_hip' (coordinate 2 of 3); 4 descendant(s), 7 ancestor row(s)
   {
     const double d = L[209] - (L[171] * L[171] + L[182] * L[182] + L[192] * L[192] + L[201] * L[201]);
-    if (!(d > kPivotTolerance * L[209])) return not_positive_definite(22, d);
+    if (!(d > kMassPivotTolerance * L[209])) return not_positive_definite(22, d);
     const double l = std::sqrt(d);
     L[209] = l;
     Dinv[22] = l * (1.0 / d);
@@ -671,7 +687,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
   // column 23: joint 'right_hip' (coordinate 3 of 3); 5 descendant(s), 6 ancestor row(s)
   {
     const double d = L[217] - (L[172] * L[172] + L[183] * L[183] + L[193] * L[193] + L[202] * L[202] + L[210] * L[210]);
-    if (!(d > kPivotTolerance * L[217])) return not_positive_definite(23, d);
+    if (!(d > kMassPivotTolerance * L[217])) return not_positive_definite(23, d);
     const double l = std::sqrt(d);
     L[217] = l;
     Dinv[23] = l * (1.0 / d);
@@ -686,7 +702,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
     sd += L[80] * L[80] + L[89] * L[89] + L[97] * L[97] + L[104] * L[104] + L[116] * L[116] + L[127] * L[127] + L[137] * L[137] + L[146] * L[146];
     sd += L[154] * L[154] + L[161] * L[161] + L[173] * L[173] + L[184] * L[184] + L[194] * L[194] + L[203] * L[203] + L[211] * L[211] + L[218] * L[218];
     const double d = L[224] - sd;
-    if (!(d > kPivotTolerance * L[224])) return not_positive_definite(24, d);
+    if (!(d > kMassPivotTolerance * L[224])) return not_positive_definite(24, d);
     const double l = std::sqrt(d);
     L[224] = l;
     Dinv[24] = l * (1.0 / d);
@@ -717,7 +733,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
     sd += L[155] * L[155] + L[162] * L[162] + L[174] * L[174] + L[185] * L[185] + L[195] * L[195] + L[204] * L[204] + L[212] * L[212] + L[219] * L[219];
     sd += L[225] * L[225];
     const double d = L[230] - sd;
-    if (!(d > kPivotTolerance * L[230])) return not_positive_definite(25, d);
+    if (!(d > kMassPivotTolerance * L[230])) return not_positive_definite(25, d);
     const double l = std::sqrt(d);
     L[230] = l;
     Dinv[25] = l * (1.0 / d);
@@ -744,7 +760,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
     sd += L[156] * L[156] + L[163] * L[163] + L[175] * L[175] + L[186] * L[186] + L[196] * L[196] + L[205] * L[205] + L[213] * L[213] + L[220] * L[220];
     sd += L[226] * L[226] + L[231] * L[231];
     const double d = L[235] - sd;
-    if (!(d > kPivotTolerance * L[235])) return not_positive_definite(26, d);
+    if (!(d > kMassPivotTolerance * L[235])) return not_positive_definite(26, d);
     const double l = std::sqrt(d);
     L[235] = l;
     Dinv[26] = l * (1.0 / d);
@@ -771,7 +787,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
     sd += L[157] * L[157] + L[164] * L[164] + L[176] * L[176] + L[187] * L[187] + L[197] * L[197] + L[206] * L[206] + L[214] * L[214] + L[221] * L[221];
     sd += L[227] * L[227] + L[232] * L[232] + L[236] * L[236];
     const double d = L[239] - sd;
-    if (!(d > kPivotTolerance * L[239])) return not_positive_definite(27, d);
+    if (!(d > kMassPivotTolerance * L[239])) return not_positive_definite(27, d);
     const double l = std::sqrt(d);
     L[239] = l;
     Dinv[27] = l * (1.0 / d);
@@ -790,7 +806,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
     sd += L[158] * L[158] + L[165] * L[165] + L[177] * L[177] + L[188] * L[188] + L[198] * L[198] + L[207] * L[207] + L[215] * L[215] + L[222] * L[222];
     sd += L[228] * L[228] + L[233] * L[233] + L[237] * L[237] + L[240] * L[240];
     const double d = L[242] - sd;
-    if (!(d > kPivotTolerance * L[242])) return not_positive_definite(28, d);
+    if (!(d > kMassPivotTolerance * L[242])) return not_positive_definite(28, d);
     const double l = std::sqrt(d);
     L[242] = l;
     Dinv[28] = l * (1.0 / d);
@@ -810,7 +826,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor(double* __restrict L, double* __restr
     sd += L[159] * L[159] + L[166] * L[166] + L[178] * L[178] + L[189] * L[189] + L[199] * L[199] + L[208] * L[208] + L[216] * L[216] + L[223] * L[223];
     sd += L[229] * L[229] + L[234] * L[234] + L[238] * L[238] + L[241] * L[241] + L[243] * L[243];
     const double d = L[244] - sd;
-    if (!(d > kPivotTolerance * L[244])) return not_positive_definite(29, d);
+    if (!(d > kMassPivotTolerance * L[244])) return not_positive_definite(29, d);
     const double l = std::sqrt(d);
     L[244] = l;
     Dinv[29] = l * (1.0 / d);
@@ -826,7 +842,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 0: joint 'neck' (coordinate 1 of 3); 0 descendant(s), 9 ancestor row(s)
   {
     const double d = M[217];
-    if (!(d > kPivotTolerance * M[217])) return not_positive_definite(0, d);
+    if (!(d > kMassPivotTolerance * M[217])) return not_positive_definite(0, d);
     const double l = std::sqrt(d);
     L[0] = l;
     Dinv[0] = l * (1.0 / d);
@@ -839,7 +855,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 1: joint 'neck' (coordinate 2 of 3); 1 descendant(s), 8 ancestor row(s)
   {
     const double d = M[248] - L[1] * L[1];
-    if (!(d > kPivotTolerance * M[248])) return not_positive_definite(1, d);
+    if (!(d > kMassPivotTolerance * M[248])) return not_positive_definite(1, d);
     const double l = std::sqrt(d);
     L[10] = l;
     Dinv[1] = l * (1.0 / d);
@@ -851,7 +867,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 2: joint 'neck' (coordinate 3 of 3); 2 descendant(s), 7 ancestor row(s)
   {
     const double d = M[279] - (L[2] * L[2] + L[11] * L[11]);
-    if (!(d > kPivotTolerance * M[279])) return not_positive_definite(2, d);
+    if (!(d > kMassPivotTolerance * M[279])) return not_positive_definite(2, d);
     const double l = std::sqrt(d);
     L[19] = l;
     Dinv[2] = l * (1.0 / d);
@@ -863,7 +879,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 3: joint 'left_elbow'; 0 descendant(s), 10 ancestor row(s)
   {
     const double d = M[403];
-    if (!(d > kPivotTolerance * M[403])) return not_positive_definite(3, d);
+    if (!(d > kMassPivotTolerance * M[403])) return not_positive_definite(3, d);
     const double l = std::sqrt(d);
     L[27] = l;
     Dinv[3] = l * (1.0 / d);
@@ -876,7 +892,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 4: joint 'left_shoulder' (coordinate 1 of 3); 1 descendant(s), 9 ancestor row(s)
   {
     const double d = M[310] - L[28] * L[28];
-    if (!(d > kPivotTolerance * M[310])) return not_positive_definite(4, d);
+    if (!(d > kMassPivotTolerance * M[310])) return not_positive_definite(4, d);
     const double l = std::sqrt(d);
     L[38] = l;
     Dinv[4] = l * (1.0 / d);
@@ -889,7 +905,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 5: joint 'left_shoulder' (coordinate 2 of 3); 2 descendant(s), 8 ancestor row(s)
   {
     const double d = M[341] - (L[29] * L[29] + L[39] * L[39]);
-    if (!(d > kPivotTolerance * M[341])) return not_positive_definite(5, d);
+    if (!(d > kMassPivotTolerance * M[341])) return not_positive_definite(5, d);
     const double l = std::sqrt(d);
     L[48] = l;
     Dinv[5] = l * (1.0 / d);
@@ -902,7 +918,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 6: joint 'left_shoulder' (coordinate 3 of 3); 3 descendant(s), 7 ancestor row(s)
   {
     const double d = M[372] - (L[30] * L[30] + L[40] * L[40] + L[49] * L[49]);
-    if (!(d > kPivotTolerance * M[372])) return not_positive_definite(6, d);
+    if (!(d > kMassPivotTolerance * M[372])) return not_positive_definite(6, d);
     const double l = std::sqrt(d);
     L[57] = l;
     Dinv[6] = l * (1.0 / d);
@@ -914,7 +930,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 7: joint 'right_elbow'; 0 descendant(s), 10 ancestor row(s)
   {
     const double d = M[527];
-    if (!(d > kPivotTolerance * M[527])) return not_positive_definite(7, d);
+    if (!(d > kMassPivotTolerance * M[527])) return not_positive_definite(7, d);
     const double l = std::sqrt(d);
     L[65] = l;
     Dinv[7] = l * (1.0 / d);
@@ -927,7 +943,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 8: joint 'right_shoulder' (coordinate 1 of 3); 1 descendant(s), 9 ancestor row(s)
   {
     const double d = M[434] - L[66] * L[66];
-    if (!(d > kPivotTolerance * M[434])) return not_positive_definite(8, d);
+    if (!(d > kMassPivotTolerance * M[434])) return not_positive_definite(8, d);
     const double l = std::sqrt(d);
     L[76] = l;
     Dinv[8] = l * (1.0 / d);
@@ -940,7 +956,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 9: joint 'right_shoulder' (coordinate 2 of 3); 2 descendant(s), 8 ancestor row(s)
   {
     const double d = M[465] - (L[67] * L[67] + L[77] * L[77]);
-    if (!(d > kPivotTolerance * M[465])) return not_positive_definite(9, d);
+    if (!(d > kMassPivotTolerance * M[465])) return not_positive_definite(9, d);
     const double l = std::sqrt(d);
     L[86] = l;
     Dinv[9] = l * (1.0 / d);
@@ -952,7 +968,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 10: joint 'right_shoulder' (coordinate 3 of 3); 3 descendant(s), 7 ancestor row(s)
   {
     const double d = M[496] - (L[68] * L[68] + L[78] * L[78] + L[87] * L[87]);
-    if (!(d > kPivotTolerance * M[496])) return not_positive_definite(10, d);
+    if (!(d > kMassPivotTolerance * M[496])) return not_positive_definite(10, d);
     const double l = std::sqrt(d);
     L[95] = l;
     Dinv[10] = l * (1.0 / d);
@@ -967,7 +983,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
     double sd = L[3] * L[3] + L[12] * L[12] + L[20] * L[20] + L[31] * L[31] + L[41] * L[41] + L[50] * L[50] + L[58] * L[58] + L[69] * L[69];
     sd += L[79] * L[79] + L[88] * L[88] + L[96] * L[96];
     const double d = M[186] - sd;
-    if (!(d > kPivotTolerance * M[186])) return not_positive_definite(11, d);
+    if (!(d > kMassPivotTolerance * M[186])) return not_positive_definite(11, d);
     const double l = std::sqrt(d);
     L[103] = l;
     Dinv[11] = l * (1.0 / d);
@@ -990,7 +1006,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 12: joint 'left_ankle_roll'; 0 descendant(s), 11 ancestor row(s)
   {
     const double d = M[713];
-    if (!(d > kPivotTolerance * M[713])) return not_positive_definite(12, d);
+    if (!(d > kMassPivotTolerance * M[713])) return not_positive_definite(12, d);
     const double l = std::sqrt(d);
     L[110] = l;
     Dinv[12] = l * (1.0 / d);
@@ -1004,7 +1020,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 13: joint 'left_ankle_pitch'; 1 descendant(s), 10 ancestor row(s)
   {
     const double d = M[682] - L[111] * L[111];
-    if (!(d > kPivotTolerance * M[682])) return not_positive_definite(13, d);
+    if (!(d > kMassPivotTolerance * M[682])) return not_positive_definite(13, d);
     const double l = std::sqrt(d);
     L[122] = l;
     Dinv[13] = l * (1.0 / d);
@@ -1018,7 +1034,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 14: joint 'left_knee'; 2 descendant(s), 9 ancestor row(s)
   {
     const double d = M[651] - (L[112] * L[112] + L[123] * L[123]);
-    if (!(d > kPivotTolerance * M[651])) return not_positive_definite(14, d);
+    if (!(d > kMassPivotTolerance * M[651])) return not_positive_definite(14, d);
     const double l = std::sqrt(d);
     L[133] = l;
     Dinv[14] = l * (1.0 / d);
@@ -1031,7 +1047,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 15: joint 'left_hip' (coordinate 1 of 3); 3 descendant(s), 8 ancestor row(s)
   {
     const double d = M[558] - (L[113] * L[113] + L[124] * L[124] + L[134] * L[134]);
-    if (!(d > kPivotTolerance * M[558])) return not_positive_definite(15, d);
+    if (!(d > kMassPivotTolerance * M[558])) return not_positive_definite(15, d);
     const double l = std::sqrt(d);
     L[143] = l;
     Dinv[15] = l * (1.0 / d);
@@ -1043,7 +1059,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 16: joint 'left_hip' (coordinate 2 of 3); 4 descendant(s), 7 ancestor row(s)
   {
     const double d = M[589] - (L[114] * L[114] + L[125] * L[125] + L[135] * L[135] + L[144] * L[144]);
-    if (!(d > kPivotTolerance * M[589])) return not_positive_definite(16, d);
+    if (!(d > kMassPivotTolerance * M[589])) return not_positive_definite(16, d);
     const double l = std::sqrt(d);
     L[152] = l;
     Dinv[16] = l * (1.0 / d);
@@ -1056,7 +1072,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 17: joint 'left_hip' (coordinate 3 of 3); 5 descendant(s), 6 ancestor row(s)
   {
     const double d = M[620] - (L[115] * L[115] + L[126] * L[126] + L[136] * L[136] + L[145] * L[145] + L[153] * L[153]);
-    if (!(d > kPivotTolerance * M[620])) return not_positive_definite(17, d);
+    if (!(d > kMassPivotTolerance * M[620])) return not_positive_definite(17, d);
     const double l = std::sqrt(d);
     L[160] = l;
     Dinv[17] = l * (1.0 / d);
@@ -1067,7 +1083,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 18: joint 'right_ankle_roll'; 0 descendant(s), 11 ancestor row(s)
   {
     const double d = M[899];
-    if (!(d > kPivotTolerance * M[899])) return not_positive_definite(18, d);
+    if (!(d > kMassPivotTolerance * M[899])) return not_positive_definite(18, d);
     const double l = std::sqrt(d);
     L[167] = l;
     Dinv[18] = l * (1.0 / d);
@@ -1081,7 +1097,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 19: joint 'right_ankle_pitch'; 1 descendant(s), 10 ancestor row(s)
   {
     const double d = M[868] - L[168] * L[168];
-    if (!(d > kPivotTolerance * M[868])) return not_positive_definite(19, d);
+    if (!(d > kMassPivotTolerance * M[868])) return not_positive_definite(19, d);
     const double l = std::sqrt(d);
     L[179] = l;
     Dinv[19] = l * (1.0 / d);
@@ -1094,7 +1110,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 20: joint 'right_knee'; 2 descendant(s), 9 ancestor row(s)
   {
     const double d = M[837] - (L[169] * L[169] + L[180] * L[180]);
-    if (!(d > kPivotTolerance * M[837])) return not_positive_definite(20, d);
+    if (!(d > kMassPivotTolerance * M[837])) return not_positive_definite(20, d);
     const double l = std::sqrt(d);
     L[190] = l;
     Dinv[20] = l * (1.0 / d);
@@ -1108,7 +1124,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 21: joint 'right_hip' (coordinate 1 of 3); 3 descendant(s), 8 ancestor row(s)
   {
     const double d = M[744] - (L[170] * L[170] + L[181] * L[181] + L[191] * L[191]);
-    if (!(d > kPivotTolerance * M[744])) return not_positive_definite(21, d);
+    if (!(d > kMassPivotTolerance * M[744])) return not_positive_definite(21, d);
     const double l = std::sqrt(d);
     L[200] = l;
     Dinv[21] = l * (1.0 / d);
@@ -1120,7 +1136,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 22: joint 'right_hip' (coordinate 2 of 3); 4 descendant(s), 7 ancestor row(s)
   {
     const double d = M[775] - (L[171] * L[171] + L[182] * L[182] + L[192] * L[192] + L[201] * L[201]);
-    if (!(d > kPivotTolerance * M[775])) return not_positive_definite(22, d);
+    if (!(d > kMassPivotTolerance * M[775])) return not_positive_definite(22, d);
     const double l = std::sqrt(d);
     L[209] = l;
     Dinv[22] = l * (1.0 / d);
@@ -1132,7 +1148,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
   // column 23: joint 'right_hip' (coordinate 3 of 3); 5 descendant(s), 6 ancestor row(s)
   {
     const double d = M[806] - (L[172] * L[172] + L[183] * L[183] + L[193] * L[193] + L[202] * L[202] + L[210] * L[210]);
-    if (!(d > kPivotTolerance * M[806])) return not_positive_definite(23, d);
+    if (!(d > kMassPivotTolerance * M[806])) return not_positive_definite(23, d);
     const double l = std::sqrt(d);
     L[217] = l;
     Dinv[23] = l * (1.0 / d);
@@ -1147,7 +1163,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
     sd += L[80] * L[80] + L[89] * L[89] + L[97] * L[97] + L[104] * L[104] + L[116] * L[116] + L[127] * L[127] + L[137] * L[137] + L[146] * L[146];
     sd += L[154] * L[154] + L[161] * L[161] + L[173] * L[173] + L[184] * L[184] + L[194] * L[194] + L[203] * L[203] + L[211] * L[211] + L[218] * L[218];
     const double d = M[0] - sd;
-    if (!(d > kPivotTolerance * M[0])) return not_positive_definite(24, d);
+    if (!(d > kMassPivotTolerance * M[0])) return not_positive_definite(24, d);
     const double l = std::sqrt(d);
     L[224] = l;
     Dinv[24] = l * (1.0 / d);
@@ -1178,7 +1194,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
     sd += L[155] * L[155] + L[162] * L[162] + L[174] * L[174] + L[185] * L[185] + L[195] * L[195] + L[204] * L[204] + L[212] * L[212] + L[219] * L[219];
     sd += L[225] * L[225];
     const double d = M[31] - sd;
-    if (!(d > kPivotTolerance * M[31])) return not_positive_definite(25, d);
+    if (!(d > kMassPivotTolerance * M[31])) return not_positive_definite(25, d);
     const double l = std::sqrt(d);
     L[230] = l;
     Dinv[25] = l * (1.0 / d);
@@ -1205,7 +1221,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
     sd += L[156] * L[156] + L[163] * L[163] + L[175] * L[175] + L[186] * L[186] + L[196] * L[196] + L[205] * L[205] + L[213] * L[213] + L[220] * L[220];
     sd += L[226] * L[226] + L[231] * L[231];
     const double d = M[62] - sd;
-    if (!(d > kPivotTolerance * M[62])) return not_positive_definite(26, d);
+    if (!(d > kMassPivotTolerance * M[62])) return not_positive_definite(26, d);
     const double l = std::sqrt(d);
     L[235] = l;
     Dinv[26] = l * (1.0 / d);
@@ -1232,7 +1248,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
     sd += L[157] * L[157] + L[164] * L[164] + L[176] * L[176] + L[187] * L[187] + L[197] * L[197] + L[206] * L[206] + L[214] * L[214] + L[221] * L[221];
     sd += L[227] * L[227] + L[232] * L[232] + L[236] * L[236];
     const double d = M[93] - sd;
-    if (!(d > kPivotTolerance * M[93])) return not_positive_definite(27, d);
+    if (!(d > kMassPivotTolerance * M[93])) return not_positive_definite(27, d);
     const double l = std::sqrt(d);
     L[239] = l;
     Dinv[27] = l * (1.0 / d);
@@ -1251,7 +1267,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
     sd += L[158] * L[158] + L[165] * L[165] + L[177] * L[177] + L[188] * L[188] + L[198] * L[198] + L[207] * L[207] + L[215] * L[215] + L[222] * L[222];
     sd += L[228] * L[228] + L[233] * L[233] + L[237] * L[237] + L[240] * L[240];
     const double d = M[124] - sd;
-    if (!(d > kPivotTolerance * M[124])) return not_positive_definite(28, d);
+    if (!(d > kMassPivotTolerance * M[124])) return not_positive_definite(28, d);
     const double l = std::sqrt(d);
     L[242] = l;
     Dinv[28] = l * (1.0 / d);
@@ -1271,7 +1287,7 @@ JRGEN_DISPATCH JRGEN_STEP int step1_factor_dense(const double* __restrict M, dou
     sd += L[159] * L[159] + L[166] * L[166] + L[178] * L[178] + L[189] * L[189] + L[199] * L[199] + L[208] * L[208] + L[216] * L[216] + L[223] * L[223];
     sd += L[229] * L[229] + L[234] * L[234] + L[238] * L[238] + L[241] * L[241] + L[243] * L[243];
     const double d = M[155] - sd;
-    if (!(d > kPivotTolerance * M[155])) return not_positive_definite(29, d);
+    if (!(d > kMassPivotTolerance * M[155])) return not_positive_definite(29, d);
     const double l = std::sqrt(d);
     L[244] = l;
     Dinv[29] = l * (1.0 / d);
@@ -8531,12 +8547,18 @@ JRGEN_DISPATCH void articulated_terms(const double* q, const double* v, const do
   articulated_terms_part(q, v, tau, qdd, D);
 }
 
-// Status 1 when a pivot D_j is not positive (M not positive definite) or the
-// pivots' spread d_min / d_max is below kSpreadLimit (M singular to working
-// precision: Step 1's digits test on the same pivots); 3 for a non-finite qdd.
+// Upper bounds of M's diagonal entries over all configurations, Lemma 2 order
+// (0: none): a pivot D_j must exceed kMassPivotTolerance times its entry, as
+// in Step 1, where M_jj itself is at hand (docs/status.md).
+constexpr double kMassDiagonalBound[30] = { 0.16464800000000002, 0.16464800000000002, 0.16464800000000002, 0.09174056268754, 0.51412040915258, 0.51412040915258, 0.51412040915258, 0.09174056268754, 0.51412040915258, 0.51412040915258, 0.51412040915258, 11.283876894542201, 0.019743256667, 0.019773256667, 0.5051017795595669, 4.425689624669197, 4.425689624669197, 4.425689624669197, 0.019743256667, 0.019773256667, 0.5051017795595669, 4.425689624669197, 4.425689624669197, 4.425689624669197, 70, 70, 70, 67.57591933299727, 67.57591933299727, 67.57591933299727 };
+// Status 1 when a pivot D_j is not above kMassPivotTolerance * kMassDiagonalBound[j]
+// (M not positive definite, or fewer than 6 digits left) or the pivots' spread
+// d_min / d_max is below kSpreadLimit (Step 1's digits test on the same pivots);
+// 3 for a non-finite qdd.
 JRGEN_DISPATCH int check_articulated(const double* D, const double* qdd) {
   for (std::int32_t j = 0; j < nv; ++j)
-    if (!(D[j] > 0.0)) return not_positive_definite(j, D[j]);
+    if (!(D[j] > 0.0) || !(D[j] > kMassPivotTolerance * kMassDiagonalBound[j]))
+      return not_positive_definite(j, D[j]);
   double ratio = 0.0;
   const std::int32_t j = jr::pivot_spread(D, nv, false, 1, kSpreadLimit, &ratio);
   if (j >= 0)
