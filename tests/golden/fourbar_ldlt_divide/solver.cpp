@@ -108,12 +108,12 @@ constexpr std::int32_t kSchurOrder[2] = { 0, 1 };
 // towards its zero state (the neck's roll and yaw axes aligning), 1.7e-7 at
 // this limit; about eps / min_j (d_j / M_jj) on a 50-link rope, whose random
 // states reach 4e-5; every real robot's random states stay above 5e-4.
-constexpr double kMassPivotTolerance = 1e-6;
+[[maybe_unused]] constexpr double kMassPivotTolerance = 1e-6;  // unused where M is not factored
 // Step 3.4's per-pivot test on T^T T: a pivot at or below kPivotTolerance
 // times its diagonal entry (nearly dependent constraint rows) is reported
 // (code 2).  qdd's error grows like 0.4 eps / (d_j / W_jj) on the HMMWV with two
 // rows of a cut made nearly dependent (docs/extreme.md): 5e-8 at this limit.
-constexpr double kPivotTolerance = 1e-9;
+[[maybe_unused]] constexpr double kPivotTolerance = 1e-9;  // trees have no T^T T (clang: -Wunused-const-variable)
 // The digits test on each finished factor, of M (Step 1) and of T^T T
 // (Step 3.4): the smallest pivot against the largest (jr::pivot_spread).  A
 // spread d_min / d_max below 1e-13 proves cond2 > 1e13, where a Cholesky
