@@ -266,15 +266,6 @@ bool length_row(ir::CutType type, int row) {
   return true;
 }
 
-// Whether velocity coordinate k of a joint is a translation (INTERFACE.md section 3).
-bool translational(ir::JointType type, int k) {
-  switch (type) {
-    case ir::JointType::Prismatic: return true;
-    case ir::JointType::Floating: return k < 3;
-    case ir::JointType::Planar: return k < 2;
-    default: return false;
-  }
-}
 
 struct Scaling {
   double length = 1.0;           ///< L
@@ -290,7 +281,7 @@ Scaling scaling(const topology::Tree& tree) {
   s.dof_user.assign(tree.nv, 1.0);
   for (const topology::Body& b : tree.bodies)
     for (int k = 0; k < b.nv; ++k)
-      if (translational(b.type, k)) s.dof_user[b.v_user + k] = s.length;
+      if (topology::dof_translates(b.type, k)) s.dof_user[b.v_user + k] = s.length;
   return s;
 }
 

@@ -15,9 +15,8 @@ bool translates(ir::JointType type) {
   return type == ir::JointType::Prismatic || type == ir::JointType::Planar || type == ir::JointType::Floating;
 }
 
-// Which dofs of a joint translate (M_jj = the subtree's mass) and which rotate
-// (M_jj <= sum m_b r_b^2 + trace I_b), in the joint's own dof order
-// (docs/coordinates.md: floating p_dot then omega, planar x, y then theta).
+}  // namespace
+
 bool dof_translates(ir::JointType type, int k) {
   switch (type) {
     case ir::JointType::Prismatic: return true;
@@ -26,8 +25,6 @@ bool dof_translates(ir::JointType type, int k) {
     default: return false;
   }
 }
-
-}  // namespace
 
 // Lemma 2 order puts children first, so one pass accumulates each subtree:
 // its mass m, the sum of trace(I_com) t, its reach R (the largest distance

@@ -171,6 +171,11 @@ Tree build_tree(const ir::Robot& robot, const MassBounds& bounds = {});
 /// joints are fused, or when a placed point overflows.
 void place_force_elements(const ir::Robot& robot, Tree& tree);
 
+/// Whether velocity coordinate k of a joint of this type is a translation, in
+/// the joint's own dof order (docs/coordinates.md: floating p_dot then omega,
+/// planar x, y then theta).
+bool dof_translates(ir::JointType type, int k);
+
 /// For every dof (Lemma 2 order), an upper bound of M's diagonal entry M_jj
 /// over all configurations: the subtree's mass for a translation, and for a
 /// rotation the sum over the subtree of m_b r_b^2 + trace(I_b), r_b bounded by
