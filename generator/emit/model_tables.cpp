@@ -196,8 +196,9 @@ std::string constraint_tables(const topology::Tree& t, const std::vector<Row>& r
                      cm.num_dofs);
   }
   s += "};\n";
-  s += fmt::format("constexpr jr::ConstraintModel kConstraints = {{{}, {}, {}, kCuts}};\n", t.cuts.size(), m,
-                   phiq_nnz);
+  // [[maybe_unused]]: only the runtime's terms (large models) read it, not the specialized ones.
+  s += fmt::format("[[maybe_unused]] constexpr jr::ConstraintModel kConstraints = {{{}, {}, {}, kCuts}};\n",
+                   t.cuts.size(), m, phiq_nnz);
   s += "// Kept constraint row -> the loop joint and row of its type (for diagnostics).\n";
   s += fmt::format("const char* const kRowLabel[{}] = {{\n", m);
   for (int g = 0; g < m; ++g) {

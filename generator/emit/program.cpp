@@ -22,6 +22,21 @@ std::uint64_t bits(double c) {
   return u;
 }
 
+// Hashes of expressions (Node::hash), the same on every compiler and library:
+// splitmix64's finalizer over a combination, FNV-1a for input texts.
+std::uint64_t mix(std::uint64_t h, std::uint64_t x) {
+  std::uint64_t z = h ^ (x + 0x9e3779b97f4a7c15ULL + (h << 6) + (h >> 2));
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  return z ^ (z >> 31);
+}
+
+std::uint64_t fnv1a(const std::string& text) {
+  std::uint64_t h = 0xcbf29ce484222325ULL;
+  for (unsigned char c : text) h = (h ^ c) * 0x100000001b3ULL;
+  return h;
+}
+
 // The names of the parameters in "const double* q, double* L".
 std::vector<std::string> parameter_names(const std::string& params) {
   std::vector<std::string> names;
@@ -69,7 +84,7 @@ Value Program::input(const std::string& expr) {
   const std::string k = "in:" + expr;
   if (auto it = index_.find(k); it != index_.end()) return Value(this, it->second);
   nodes_.push_back({Op::kInput, Value(), Value(), expr, static_cast<int>(functions_.size()) - 1,
-                    static_cast<int>(blocks_.size()) - 1});
+                    static_cast<int>(blocks_.size()) - 1, mix(0, fnv1a(expr))});
   index_.emplace(k, static_cast<int>(nodes_.size()) - 1);
   return Value(this, static_cast<int>(nodes_.size()) - 1);
 }
@@ -92,10 +107,14 @@ void Program::split_if_full() {
 void Program::begin_block(const std::string& name) { blocks_.push_back(name); }
 
 void Program::comment(const std::string& text) {
+  split_if_full();
   // Joint and cut names reach comments: made safe for a // line here, once.
   comments_.push_back({comment_text(text), static_cast<int>(functions_.size()) - 1, static_cast<int>(nodes_.size())});
 }
 
+// Functions are split only at comments and outputs (the emitters comment
+// each body): the nodes created between two of them are the same set whatever
+// order they were created in.
 void Program::output(const std::string& target, Value value) {
   split_if_full();
   outputs_.push_back({target, value, false, static_cast<int>(functions_.size()) - 1, static_cast<int>(nodes_.size())});
@@ -112,6 +131,10 @@ std::string Program::key(Op op, Value a, Value b) const {
     return v.is_constant() ? fmt::format("c{:x}", bits(v.constant())) : fmt::format("n{}", v.node());
   };
   return fmt::format("{}:{}:{}", static_cast<int>(op), enc(a), enc(b));
+}
+
+std::uint64_t Program::hash_of(Value v) const {
+  return v.is_constant() ? mix(1, bits(v.constant())) : nodes_[static_cast<std::size_t>(v.node())].hash;
 }
 
 Value Program::make(Op op, Value a, Value b) {
@@ -150,16 +173,19 @@ Value Program::make(Op op, Value a, Value b) {
       break;
     default: break;
   }
-  // Commutative operations: the node operand first, lower node first, so
-  // a * b and b * a are one node.
-  if ((op == Op::kAdd || op == Op::kMul) &&
-      (a.is_constant() ? !b.is_constant() : (!b.is_constant() && b.node() < a.node())))
-    std::swap(a, b);
+  // Commutative operations: the node operand first, then the lower hash (the
+  // node number only if two hashes collide), so a * b and b * a are one node
+  // and its text does not depend on which was created first.
+  const auto before = [&](Value x, Value y) {
+    const std::uint64_t hx = hash_of(x), hy = hash_of(y);
+    return hx < hy || (hx == hy && x.node() < y.node());
+  };
+  if ((op == Op::kAdd || op == Op::kMul) && !b.is_constant() && (a.is_constant() || before(b, a))) std::swap(a, b);
   if (functions_.size() == 1) throw std::logic_error("Program: begin_function() before the first operation");
   const std::string k = key(op, a, b);
   if (auto it = index_.find(k); it != index_.end()) return Value(this, it->second);
-  split_if_full();
-  nodes_.push_back({op, a, b, "", static_cast<int>(functions_.size()) - 1, static_cast<int>(blocks_.size()) - 1});
+  nodes_.push_back({op, a, b, "", static_cast<int>(functions_.size()) - 1, static_cast<int>(blocks_.size()) - 1,
+                    mix(mix(static_cast<std::uint64_t>(op) + 2, hash_of(a)), hash_of(b))});
   ++function_nodes_.back();
   index_.emplace(k, static_cast<int>(nodes_.size()) - 1);
   return Value(this, static_cast<int>(nodes_.size()) - 1);
@@ -177,23 +203,26 @@ std::vector<bool> Program::live() const {
   return is_live;
 }
 
-std::string Program::operand(Value v) const {
+// name[node]: the N of its tN (emit(): the order of its statement).
+std::string Program::operand(Value v, const std::vector<int>& name) const {
   if (v.is_constant() && !std::isfinite(v.constant())) non_finite_ = true;
   if (v.is_constant()) return v.constant() < 0.0 ? fmt::format("({})", num(v.constant())) : num(v.constant());
   const Node& n = nodes_[v.node()];
-  return n.op == Op::kInput ? n.text : fmt::format("t{}", v.node());
+  return n.op == Op::kInput ? n.text : fmt::format("t{}", name[static_cast<std::size_t>(v.node())]);
 }
 
-std::string Program::expression(const Node& n) const {
+std::string Program::expression(const Node& n, const std::vector<int>& name) const {
+  const auto a = [&] { return operand(n.a, name); };
+  const auto b = [&] { return operand(n.b, name); };
   switch (n.op) {
-    case Op::kAdd: return operand(n.a) + " + " + operand(n.b);
-    case Op::kSub: return operand(n.a) + " - " + operand(n.b);
-    case Op::kMul: return operand(n.a) + " * " + operand(n.b);
-    case Op::kDiv: return operand(n.a) + " / " + operand(n.b);
-    case Op::kNeg: return fmt::format("-{}", operand(n.a));
-    case Op::kSqrt: return "std::sqrt(" + operand(n.a) + ")";
-    case Op::kSin: return "std::sin(" + operand(n.a) + ")";
-    case Op::kCos: return "std::cos(" + operand(n.a) + ")";
+    case Op::kAdd: return a() + " + " + b();
+    case Op::kSub: return a() + " - " + b();
+    case Op::kMul: return a() + " * " + b();
+    case Op::kDiv: return a() + " / " + b();
+    case Op::kNeg: return fmt::format("-{}", a());
+    case Op::kSqrt: return "std::sqrt(" + a() + ")";
+    case Op::kSin: return "std::sin(" + a() + ")";
+    case Op::kCos: return "std::cos(" + a() + ")";
     case Op::kInput: return n.text;
   }
   return "";
@@ -247,18 +276,96 @@ std::vector<std::pair<std::string, OpCount>> Program::count() const {
   return per_block;
 }
 
+// The lines of emit() in order.  Statements in demand order: each output
+// preceded by the nodes of its function it needs, depth first (operands left
+// to right), so a value is computed next to its use.  Creation order (all
+// kinematics, then all of M, ...) keeps thousands of values alive at once,
+// which the compiler spills; in demand order the straight-line code needs
+// fewer registers and fewer bytes of instructions (docs/specialization.md).
+// Nothing here depends on the order the nodes were created in (program.hpp).
+std::vector<Program::Event> Program::events(const std::vector<bool>& is_live) const {
+  std::vector<Event> code;  // nodes and outputs
+  std::vector<char> state(nodes_.size(), 0);  // 0 new, 1 operands pushed, 2 emitted
+  auto demand = [&](int root, int function) {
+    std::vector<int> stack{root};
+    while (!stack.empty()) {
+      const int i = stack.back();
+      const Node& n = nodes_[static_cast<std::size_t>(i)];
+      if (state[i] == 2 || n.op == Op::kInput || n.function != function) {
+        stack.pop_back();
+      } else if (state[i] == 0) {
+        state[i] = 1;
+        for (Value v : {n.b, n.a})
+          if (!v.is_constant()) stack.push_back(v.node());
+      } else {
+        stack.pop_back();
+        state[i] = 2;
+        code.push_back({i, -1, -1});
+      }
+    }
+  };
+  for (std::size_t k = 0; k < outputs_.size(); ++k) {
+    const Output& x = outputs_[k];
+    if (!x.value.is_constant()) demand(x.value.node(), x.function);
+    code.push_back({-1, static_cast<int>(k), -1});
+  }
+  // Values read only by later functions (through the spill array), by function and hash.
+  std::vector<int> rest;
+  for (std::size_t i = 0; i < nodes_.size(); ++i)
+    if (is_live[i] && nodes_[i].op != Op::kInput && state[i] != 2) rest.push_back(static_cast<int>(i));
+  std::sort(rest.begin(), rest.end(), [&](int i, int j) {
+    const Node &a = nodes_[static_cast<std::size_t>(i)], &b = nodes_[static_cast<std::size_t>(j)];
+    return a.function != b.function ? a.function < b.function : a.hash != b.hash ? a.hash < b.hash : i < j;
+  });
+  for (int i : rest) demand(i, nodes_[static_cast<std::size_t>(i)].function);
+
+  // Comments: each before the first written statement among the nodes of its
+  // function created after it and before the next comment or output (a set
+  // that does not depend on the order of creation), else among all later ones.
+  std::vector<int> position(nodes_.size(), -1);
+  for (std::size_t e = 0; e < code.size(); ++e)
+    if (code[e].node >= 0) position[code[e].node] = static_cast<int>(e);
+  std::vector<int> marks;  // nodes_.size() at each comment and output
+  for (const Comment& c : comments_) marks.push_back(c.after_node);
+  for (const Output& o : outputs_) marks.push_back(o.after_node);
+  std::sort(marks.begin(), marks.end());
+  const auto earlier = [](int a, int b) { return a < 0 ? b : b < 0 ? a : std::min(a, b); };
+  // later[i]: the first written of nodes i, i+1, ... of node i's function
+  // (a function's nodes are consecutive).
+  std::vector<int> later(nodes_.size() + 1, -1);
+  for (std::size_t i = nodes_.size(); i-- > 0;)
+    later[i] = earlier(position[i], i + 1 < nodes_.size() && nodes_[i + 1].function == nodes_[i].function ? later[i + 1] : -1);
+  std::vector<std::vector<int>> comments_at(code.size() + 1);  // the last: trailing
+  for (std::size_t c = 0; c < comments_.size(); ++c) {
+    const Comment& m = comments_[c];
+    const auto next = std::upper_bound(marks.begin(), marks.end(), m.after_node);
+    const std::size_t end = next == marks.end() ? nodes_.size() : static_cast<std::size_t>(*next);
+    int at = -1;
+    for (std::size_t i = static_cast<std::size_t>(m.after_node); i < end; ++i)
+      if (nodes_[i].function == m.function) at = earlier(at, position[i]);
+    const std::size_t from = static_cast<std::size_t>(m.after_node);
+    if (at < 0 && from < nodes_.size() && nodes_[from].function == m.function) at = later[from];
+    comments_at[at < 0 ? code.size() : static_cast<std::size_t>(at)].push_back(static_cast<int>(c));
+  }
+  std::vector<Event> out;
+  for (std::size_t e = 0; e <= code.size(); ++e) {
+    for (int c : comments_at[e]) out.push_back({-1, -1, c});
+    if (e < code.size()) out.push_back(code[e]);
+  }
+  return out;
+}
+
 Program::Emitted Program::emit(const std::string& prefix) const {
   non_finite_ = false;
   const std::vector<bool> is_live = live();
-  // Spill slots: live computed nodes read in a function other than their own.
-  std::vector<int> slot(nodes_.size(), -1);
+  // Live computed nodes read in a function other than their own: spilled.
+  std::vector<char> spilled(nodes_.size(), 0);
   std::vector<std::vector<int>> imports(functions_.size());
-  Emitted out;
   auto use = [&](Value v, int function) {
     if (v.is_constant() || nodes_[v.node()].op == Op::kInput) return;
     const int n = v.node();
     if (nodes_[n].function == function) return;
-    if (slot[n] < 0) slot[n] = out.spills++;
+    spilled[n] = 1;
     auto& imp = imports[function];
     if (std::find(imp.begin(), imp.end(), n) == imp.end()) imp.push_back(n);
   };
@@ -269,66 +376,39 @@ Program::Emitted Program::emit(const std::string& prefix) const {
     }
   for (const Output& o : outputs_) use(o.value, o.function);
 
-  // Statements in demand order: each output preceded by the nodes of its
-  // function it needs, depth first (operands left to right), so a value is
-  // computed next to its use.  Creation order (all kinematics, then all of M,
-  // ...) keeps thousands of values alive at once, which the compiler spills;
-  // in demand order the straight-line code needs fewer registers and fewer
-  // bytes of instructions (docs/specialization.md).
-  std::vector<std::string> bodies(functions_.size());
-  std::vector<char> state(nodes_.size(), 0);  // 0 new, 1 operands pushed, 2 emitted
-  // Each comment goes with the first statement created after it (the first
-  // live node of its function from its position on), and is written where
-  // that statement is; comments with none follow their function's code.
-  std::vector<std::vector<std::size_t>> comments_at(nodes_.size());
-  std::vector<std::size_t> trailing;
-  for (std::size_t c = 0; c < comments_.size(); ++c) {
-    std::size_t j = static_cast<std::size_t>(comments_[c].after_node);
-    while (j < nodes_.size() && (!is_live[j] || nodes_[j].op == Op::kInput || nodes_[j].function != comments_[c].function))
-      ++j;
-    (j < nodes_.size() ? comments_at[j] : trailing).push_back(c);
-  }
-  auto emit_node = [&](int i) {
-    const Node& n = nodes_[i];
-    std::string& body = bodies[n.function];
-    for (std::size_t c : comments_at[i]) body += "  // " + comments_[c].text + "\n";
-    body += fmt::format("  const double t{} = {};\n", i, expression(n));
-    if (slot[i] >= 0) body += fmt::format("  {}[{}] = t{};\n", spill_, slot[i], i);
-    ++out.statements;
-    count_op(n.op, out.total);
-  };
-  auto demand = [&](int root, int function) {
-    std::vector<int> stack{root};
-    while (!stack.empty()) {
-      const int i = stack.back();
-      const Node& n = nodes_[i];
-      if (state[i] == 2 || n.op == Op::kInput || n.function != function) {
-        stack.pop_back();
-      } else if (state[i] == 0) {
-        state[i] = 1;
-        for (Value v : {n.b, n.a})
-          if (!v.is_constant()) stack.push_back(v.node());
-      } else {
-        stack.pop_back();
-        state[i] = 2;
-        emit_node(i);
-      }
+  const std::vector<Event> lines = events(is_live);
+  // Names tN and spill slots in the order of the statements.
+  Emitted out;
+  std::vector<int> name(nodes_.size(), -1), slot(nodes_.size(), -1);
+  int statements = 0;
+  for (const Event& e : lines)
+    if (e.node >= 0) {
+      name[e.node] = statements++;
+      if (spilled[e.node]) slot[e.node] = out.spills++;
     }
-  };
-  for (const Output& x : outputs_) {
-    if (!x.value.is_constant()) demand(x.value.node(), x.function);
-    bodies[x.function] += fmt::format("  {} {} {};\n", x.target, x.accumulate ? "+=" : "=", operand(x.value));
-    ++out.statements;
+  std::vector<std::string> bodies(functions_.size());
+  for (const Event& e : lines) {
+    if (e.comment >= 0) {
+      bodies[comments_[e.comment].function] += "  // " + comments_[e.comment].text + "\n";
+    } else if (e.node >= 0) {
+      const Node& n = nodes_[e.node];
+      std::string& body = bodies[n.function];
+      body += fmt::format("  const double t{} = {};\n", name[e.node], expression(n, name));
+      if (slot[e.node] >= 0) body += fmt::format("  {}[{}] = t{};\n", spill_, slot[e.node], name[e.node]);
+      ++out.statements;
+      count_op(n.op, out.total);
+    } else {
+      const Output& x = outputs_[e.output];
+      bodies[x.function] += fmt::format("  {} {} {};\n", x.target, x.accumulate ? "+=" : "=", operand(x.value, name));
+      ++out.statements;
+    }
   }
-  // Values read only by later functions (through the spill array).
-  for (std::size_t i = 0; i < nodes_.size(); ++i)
-    if (is_live[i] && nodes_[i].op != Op::kInput && state[i] != 2) demand(static_cast<int>(i), nodes_[i].function);
-  for (std::size_t c : trailing) bodies[comments_[c].function] += "  // " + comments_[c].text + "\n";
 
   const std::vector<std::string> params = parameter_names(params_);
   for (std::size_t f = 1; f < functions_.size(); ++f) {
+    std::sort(imports[f].begin(), imports[f].end(), [&](int i, int j) { return name[i] < name[j]; });
     std::string head;
-    for (int n : imports[f]) head += fmt::format("  const double t{} = {}[{}];\n", n, spill_, slot[n]);
+    for (int n : imports[f]) head += fmt::format("  const double t{} = {}[{}];\n", name[n], spill_, slot[n]);
     std::string body = head + bodies[f];
     // Strip comment-only bodies: a function with nothing to do is not emitted.
     if (body.find(';') == std::string::npos) continue;

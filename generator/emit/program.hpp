@@ -10,9 +10,15 @@
 //   - shares values: the same operation on the same operands is one node
 //     (hash-consing), so sin(q[3]) or a transform used by several blocks is
 //     computed once;
-//   - emits only what the outputs need, in creation order, one statement per
+//   - emits only what the outputs need, in demand order, one statement per
 //     node ("const double tN = a * b;"), in functions of bounded size; a value
 //     used in a later function is passed through a spill array;
+//   - writes the same text whatever order the nodes were created in: C++
+//     leaves the order of evaluation of a call's arguments (a * b + c * d)
+//     unspecified, and GCC and Clang differ, so the order, the names tN, the
+//     spill slots and the operand order of a + b and a * b follow the
+//     structure of the program (a hash of each node's expression) and the
+//     order of the outputs, never the order of creation;
 //   - counts the operations of what it emits, per block (--report).
 // Folding x * 0 = 0 assumes finite operands: the generated API tests its
 // inputs for NaN and infinity before it runs a program.
@@ -78,11 +84,16 @@ class Program {
 
   /// Starts a new emitted function `name` (a valid identifier, unique);
   /// later nodes and outputs belong to it.  Functions that outgrow
-  /// max_statements continue in `name_2`, `name_3`, ...
+  /// max_statements continue in `name_2`, `name_3`, ..., split at the next
+  /// comment() or output() (sequenced points: the split does not depend on
+  /// the order of creation).
   void begin_function(const std::string& name, const std::string& doc);
   /// Starts a block for the operation counts ("kinematics", "M", ...).
   void begin_block(const std::string& name);
-  /// A comment line, emitted in place (if anything follows it in its function).
+  /// A comment line, written before the first emitted statement of the nodes
+  /// created after it (up to the next comment or output; if those are none of
+  /// its function's statements, any later node of its function; at the
+  /// function's end if there is none).
   void comment(const std::string& text);
 
   /// "target = value;" (target an lvalue expression such as "L[12]").
@@ -137,27 +148,33 @@ class Program {
     std::string text;  // kInput
     int function = 0;
     int block = 0;
+    std::uint64_t hash = 0;  // of the expression: the same whatever the creation order
   };
   struct Output {
     std::string target;
     Value value;
     bool accumulate;
     int function;
-    int after_node;  // emitted after the nodes created before it
+    int after_node;  // nodes_.size() when it was made
   };
   struct Comment {
     std::string text;
     int function;
-    int after_node;
+    int after_node;  // nodes_.size() when it was made
+  };
+  struct Event {  // one line of emit()'s text, in order: exactly one index is >= 0
+    int node = -1, output = -1, comment = -1;
   };
   struct Function {
     std::string name, doc;
   };
 
   std::string key(Op op, Value a, Value b) const;
+  std::uint64_t hash_of(Value v) const;
   std::vector<bool> live() const;
-  std::string operand(Value v) const;
-  std::string expression(const Node& n) const;
+  std::vector<Event> events(const std::vector<bool>& is_live) const;
+  std::string operand(Value v, const std::vector<int>& name) const;
+  std::string expression(const Node& n, const std::vector<int>& name) const;
   void split_if_full();
 
   std::string params_, spill_;

@@ -106,7 +106,10 @@ TEST(Program, SplitsFunctionsThatOutgrowTheLimit) {
   p.begin_function("big", "many statements");
   p.begin_block("b");
   Value x = p.input("q[0]");
-  for (int i = 0; i < 35; ++i) x = x * x + static_cast<double>(i + 1);
+  for (int i = 0; i < 35; ++i) {
+    p.comment(std::to_string(i));  // functions split at comments and outputs
+    x = x * x + static_cast<double>(i + 1);
+  }
   p.output("out[0]", x);
   const Program::Emitted e = p.emit();
   EXPECT_GE(e.calls.size(), 4u);
@@ -120,3 +123,37 @@ TEST(Program, OperationsBeforeAFunctionAreAnError) {
 }
 
 }  // namespace
+
+// C++ leaves the order of evaluation of a call's arguments unspecified (GCC
+// and Clang differ), so the same model may create its nodes in different
+// orders: the text must not depend on it (program.hpp).
+TEST(Program, TextDoesNotDependOnTheOrderOfCreation) {
+  auto build = [](bool reversed) {
+    Program p("const double* q, double* out", "g_spill");
+    p.max_statements = 6;
+    p.begin_function("f", "order");
+    p.begin_block("b");
+    const Value x = p.input("q[0]"), y = p.input("q[1]");
+    Value s, c, u;
+    p.comment("first part");
+    if (reversed) {
+      u = y * y + x;
+      c = cos(y);
+      s = sin(x);
+    } else {
+      s = sin(x);
+      c = cos(y);
+      u = x + y * y;
+    }
+    const Value sc = reversed ? c * s : s * c;
+    p.comment("second part");
+    const Value w = reversed ? (u * 2.0 + sc) : (sc + 2.0 * u);
+    p.output("out[0]", w);
+    p.begin_function("g", "later");
+    p.output("out[1]", reversed ? u * sc : sc * u);
+    return p.emit().definitions;
+  };
+  const std::string forward = build(false), backward = build(true);
+  EXPECT_EQ(forward, backward);
+  EXPECT_NE(forward.find("g_spill["), std::string::npos) << forward;  // values cross into g
+}
