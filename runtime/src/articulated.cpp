@@ -13,6 +13,8 @@
 #include "spatial.hpp"
 
 #include <Eigen/Geometry>  // cross products
+#include <algorithm>
+#include <cmath>
 #include <type_traits>
 
 namespace jr {
@@ -90,6 +92,20 @@ void velocity_pass(const Model& model, BodyState* bodies, ArticulatedState* work
   }
 }
 
+// The local pivot ratios (LocalPivotRatio): pass 2 adds each child's
+// removed part g^T D_c^-1 g, g = U_c^T X_c^T S_p, into the parent's a (free
+// until pass 3), then compares every pivot of the parent with its diagonal
+// entry plus that.
+template <int N>
+void removed_from_parent(const Model& model, const BodyState* bodies, ArticulatedState* work, std::int32_t i,
+                         const Eigen::Matrix<double, 6, N>& U, const Eigen::Matrix<double, N, N>& Dinv) {
+  const std::int32_t p = model.bodies[i].parent;
+  for (int k = 0; k < model.bodies[p].nv; ++k) {
+    const Eigen::Matrix<double, N, 1> g = U.transpose() * motion_to_child(bodies[i], bodies[p].S.col(k));
+    work[p].a[k] += g.dot(Dinv * g);
+  }
+}
+
 // L D L^T of the joint's D in its own dof order (that of Step 1), and D^-1.
 // Returns -1, or the first k whose pivot is not positive (NaN included).
 template <int N>
@@ -126,7 +142,7 @@ int factor_joint(const Eigen::Matrix<double, N, N>& D, double* pivots, Eigen::Ma
 // parent.  Returns -1 or the failing dof of the joint (0 .. N-1).
 template <int N, bool kDamping>
 int articulated_body(const Model& model, BodyState* bodies, ArticulatedState* work, std::int32_t i, const double* v,
-                     const double* tau, double* pivots) {
+                     const double* tau, double* pivots, LocalPivotRatio* ratio) {
   const BodyModel& bm = model.bodies[i];
   const BodyState& b = bodies[i];
   ArticulatedState& w = work[i];
@@ -135,6 +151,16 @@ int articulated_body(const Model& model, BodyState* bodies, ArticulatedState* wo
   const Eigen::Matrix<double, N, N> D = S.transpose() * U;
   Eigen::Matrix<double, N, N> Dinv;
   if (const int k = factor_joint<N>(D, pivots + bm.v_lem, Dinv); k >= 0) return k;
+  if (ratio != nullptr) {
+    for (int k = 0; k < N; ++k) {
+      const double r = pivots[bm.v_lem + k] / (D(k, k) + w.a[k]);
+      if (!(r >= ratio->min)) {
+        ratio->min = r;
+        ratio->dof = bm.v_lem + k;
+      }
+    }
+    if (bm.parent >= 0) removed_from_parent<N>(model, bodies, work, i, U, Dinv);
+  }
   w.Dinv.topLeftCorner<N, N>() = Dinv;
   const Eigen::Matrix<double, 6, N> W = U * Dinv;
   w.W.leftCols<N>() = W;
@@ -193,11 +219,15 @@ void acceleration_pass(const Model& model, const BodyState* bodies, ArticulatedS
 
 template <bool kGravity, bool kDamping>
 std::int32_t articulated_dynamics(const Model& model, BodyState* bodies, ArticulatedState* work, const double* v,
-                                  const double* tau, double* qdd_lem, double* pivots_lem) {
+                                  const double* tau, double* qdd_lem, double* pivots_lem, LocalPivotRatio* ratio) {
   velocity_pass(model, bodies, work, v);
+  if (ratio != nullptr) {
+    *ratio = LocalPivotRatio();
+    for (std::int32_t i = 0; i < model.nb; ++i) work[i].a.setZero();
+  }
   for (std::int32_t i = 0; i < model.nb; ++i) {
     const int k = by_dofs(model.bodies[i].nv, [&](auto n) {
-      return articulated_body<decltype(n)::value, kDamping>(model, bodies, work, i, v, tau, pivots_lem);
+      return articulated_body<decltype(n)::value, kDamping>(model, bodies, work, i, v, tau, pivots_lem, ratio);
     });
     if (k >= 0) return model.bodies[i].v_lem + k;
   }
@@ -209,22 +239,22 @@ std::int32_t articulated_dynamics(const Model& model, BodyState* bodies, Articul
 }
 
 template std::int32_t articulated_dynamics<false, false>(const Model&, BodyState*, ArticulatedState*, const double*,
-                                                         const double*, double*, double*);
+                                                         const double*, double*, double*, LocalPivotRatio*);
 template std::int32_t articulated_dynamics<false, true>(const Model&, BodyState*, ArticulatedState*, const double*,
-                                                        const double*, double*, double*);
+                                                        const double*, double*, double*, LocalPivotRatio*);
 template std::int32_t articulated_dynamics<true, false>(const Model&, BodyState*, ArticulatedState*, const double*,
-                                                        const double*, double*, double*);
+                                                        const double*, double*, double*, LocalPivotRatio*);
 template std::int32_t articulated_dynamics<true, true>(const Model&, BodyState*, ArticulatedState*, const double*,
-                                                       const double*, double*, double*);
+                                                       const double*, double*, double*, LocalPivotRatio*);
 
 std::int32_t articulated_dynamics(const Model& model, BodyState* bodies, ArticulatedState* work, const double* v,
                                   const double* tau, double* qdd_lem, double* pivots_lem, bool gravity,
-                                  bool damping) {
+                                  bool damping, LocalPivotRatio* ratio) {
   if (gravity)
-    return damping ? articulated_dynamics<true, true>(model, bodies, work, v, tau, qdd_lem, pivots_lem)
-                   : articulated_dynamics<true, false>(model, bodies, work, v, tau, qdd_lem, pivots_lem);
-  return damping ? articulated_dynamics<false, true>(model, bodies, work, v, tau, qdd_lem, pivots_lem)
-                 : articulated_dynamics<false, false>(model, bodies, work, v, tau, qdd_lem, pivots_lem);
+    return damping ? articulated_dynamics<true, true>(model, bodies, work, v, tau, qdd_lem, pivots_lem, ratio)
+                   : articulated_dynamics<true, false>(model, bodies, work, v, tau, qdd_lem, pivots_lem, ratio);
+  return damping ? articulated_dynamics<false, true>(model, bodies, work, v, tau, qdd_lem, pivots_lem, ratio)
+                 : articulated_dynamics<false, false>(model, bodies, work, v, tau, qdd_lem, pivots_lem, ratio);
 }
 
 void articulated_solve(const Model& model, const BodyState* bodies, ArticulatedState* work, double* x_lem) {
@@ -290,6 +320,51 @@ void inverse_dynamics(const Model& model, BodyState* bodies, const double* v, co
     if (damping) inverse_dynamics<false, true>(model, bodies, v, qdd_lem, tau_lem);
     else inverse_dynamics<false, false>(model, bodies, v, qdd_lem, tau_lem);
   }
+}
+
+double articulated_error_estimate(const Model& model, BodyState* bodies, ArticulatedState* work, const double* v,
+                                  const double* tau, const double* qdd_lem, double* scratch, bool gravity,
+                                  bool damping, const double* diagonal_bounds) {
+  const std::int32_t nv = model.nv;
+  double* r = scratch;
+  double* d = scratch + nv;
+  inverse_dynamics(model, bodies, v, qdd_lem, r, gravity, damping);
+  for (std::int32_t j = 0; j < nv; ++j) d[j] = r[j] = tau[model.dof_user[j]] - r[j];
+  articulated_solve(model, bodies, work, d);
+  double d1 = 0.0, x = 0.0;
+  for (std::int32_t j = 0; j < nv; ++j) {
+    d1 = std::max(d1, std::abs(d[j]));
+    x = std::max(x, std::abs(qdd_lem[j]));
+  }
+  // w = |r| + the rounding floor of each residual entry, eps |S_j^T| |f_j|
+  // (f_j, the subtree force, as inverse_dynamics left it), into r; then
+  // Hager's step: z = M^-1 w, d2 = M^-1 (sign(z) w).
+  constexpr double kEps = 0x1p-52;
+  // With bounds B_j >= M_jj: eps sqrt(B_j) sum_k sqrt(B_k) |qdd_k| >= eps (|M| |qdd|)_j
+  // (|M_jk| <= sqrt(M_jj M_kk)), the floor of a backward-stable solve.
+  double moment = 0.0;
+  if (diagonal_bounds != nullptr)
+    for (std::int32_t j = 0; j < nv; ++j) moment += std::sqrt(diagonal_bounds[j]) * std::abs(qdd_lem[j]);
+  for (std::int32_t i = 0; i < model.nb; ++i) {
+    const BodyModel& bm = model.bodies[i];
+    const BodyState& b = bodies[i];
+    const double n = b.f.head<3>().norm(), f = b.f.tail<3>().norm();
+    for (int k = 0; k < bm.nv; ++k) {
+      const std::int32_t j = bm.v_lem + k;
+      const double bound = diagonal_bounds != nullptr ? kEps * std::sqrt(diagonal_bounds[j]) * moment : 0.0;
+      d[j] = r[j] =
+          std::abs(r[j]) + kEps * (b.S.col(k).head<3>().norm() * n + b.S.col(k).tail<3>().norm() * f) + bound;
+    }
+  }
+  articulated_solve(model, bodies, work, d);
+  double e = d1;
+  for (std::int32_t j = 0; j < nv; ++j) {
+    e = std::max(e, std::abs(d[j]));
+    d[j] = std::copysign(r[j], d[j]);
+  }
+  articulated_solve(model, bodies, work, d);
+  for (std::int32_t j = 0; j < nv; ++j) e = std::max(e, std::abs(d[j]));
+  return x > 0.0 ? e / x : e;
 }
 
 namespace {

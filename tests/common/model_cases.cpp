@@ -360,8 +360,43 @@ ModelCase hanging_rope_loop(int n) {
 
 }  // namespace
 
+namespace {
+
+// A 300-joint chain with a gimbal after joint 150: joints gimbal_a (z),
+// gimbal_b (x) and gimbal_c (z) at one point, the two links between them of
+// 1e-6 kg and 1e-12 kg m^2.  At gimbal_b = 0 the axes of gimbal_a and
+// gimbal_c coincide with almost nothing inertial between them: M is singular
+// to working precision there (as fixed-base icub's neck at its zero state),
+// on a long chain (tests/generated/runtime_digits_test.cpp).
+ModelCase gimbal_chain(int n) {
+  std::string urdf = chain_urdf(n, 2029);
+  const std::string half = std::to_string(n / 2), next = std::to_string(n / 2 + 1);
+  const std::string from = "<parent link=\"link_" + half + "\"/>\n    <child link=\"link_" + next + "\"/>";
+  const std::size_t at = urdf.find(from);
+  if (at == std::string::npos) throw std::runtime_error("gimbal_chain: no joint_" + next);
+  urdf.replace(at, from.size(), "<parent link=\"gimbal_3\"/>\n    <child link=\"link_" + next + "\"/>");
+  std::string gimbal;
+  const char* axes[] = {"0 0 1", "1 0 0", "0 0 1"};
+  for (int k = 0; k < 3; ++k) {
+    const std::string parent = k == 0 ? "link_" + half : "gimbal_" + std::to_string(k);
+    gimbal += fmt::format(
+        "  <joint name=\"gimbal_{}\" type=\"revolute\">\n    <parent link=\"{}\"/>\n    <child link=\"gimbal_{}\"/>\n"
+        "    <origin xyz=\"{}\"/>\n    <axis xyz=\"{}\"/>\n"
+        "    <limit lower=\"-3.14159\" upper=\"3.14159\" effort=\"100\" velocity=\"10\"/>\n  </joint>\n"
+        "  <link name=\"gimbal_{}\">\n    <inertial>\n      <mass value=\"1e-6\"/>\n"
+        "      <inertia ixx=\"1e-12\" ixy=\"0\" ixz=\"0\" iyy=\"1e-12\" iyz=\"0\" izz=\"1e-12\"/>\n"
+        "    </inertial>\n  </link>\n",
+        static_cast<char>('a' + k), parent, k + 1, k == 0 ? "0.1 0 0" : "0 0 0", axes[k], k + 1);
+  }
+  urdf.insert(urdf.rfind("</robot>"), gimbal);
+  return {"chain_gimbal_" + std::to_string(n), urdf};
+}
+
+}  // namespace
+
 std::vector<ModelCase> long_chains() {
-  return {{"chain_1000", chain_urdf(1000, 2026)}, {"chain_10000", chain_urdf(10000, 2026)}, hanging_rope_loop(300)};
+  return {{"chain_1000", chain_urdf(1000, 2026)}, {"chain_10000", chain_urdf(10000, 2026)}, hanging_rope_loop(300),
+          gimbal_chain(300)};
 }
 
 namespace {

@@ -37,7 +37,9 @@ std::vector<ModelCase> all_models();
 /// Serial revolute chains of 1000 and 10 000 joints (issue 20: O(n) forward
 /// dynamics), and a hanging rope of 300 joints tied back to its base
 /// (loops_rope_300); in no list above, since a dense reference on the chains
-/// is O(n^3) and the rope's only assembled state here is its singular one.
+/// is O(n^3) and the rope's only assembled state here is its singular one;
+/// and a 300-joint chain with a gimbal in the middle, singular where its
+/// middle joint is 0 (chain_gimbal_300).
 std::vector<ModelCase> long_chains();
 
 /// ../shared/models-external/icub.urdf as written (fixed base; as new users

@@ -45,6 +45,20 @@ struct ArticulatedState {
   Matrix6d Dinv;  ///< top-left nv x nv block: D_i^-1, D_i = S_i^T IA_i S_i
 };
 
+/// The smallest local ratio of the pivots (issue 29, item 3): for dof k of
+/// joint i, its L D L^T pivot d over the same diagonal entry before the
+/// children's projections, S_k^T (IA_i + sum_c X_c U_c D_c^-1 U_c^T X_c^T) S_k
+/// (the part of the children's inertia that their own dofs removed added
+/// back, plus the joint's own elimination).  A small ratio is cancellation in
+/// forming the pivot: two joint axes aligning with nothing inertial between
+/// them (fixed-base icub at its zero state: ratio 1e-11).  Unlike d / M_jj it
+/// stays of order 1e-2 on long chains, whose M_jj grow with the length while
+/// the articulated inertias do not.
+struct LocalPivotRatio {
+  double min = 1.0;        ///< min over the dofs of d / (diagonal before projection), in (0, 1]
+  std::int32_t dof = -1;   ///< its Lemma 2 dof
+};
+
 /// qdd = M^-1 (tau - h) by the articulated-body algorithm: pass 1 (root
 /// first) body velocities v_i (written to bodies[i].v), c_i and the rigid
 /// inertias; pass 2 (leaves first) articulated inertias IA_i and bias forces
@@ -59,16 +73,40 @@ struct ArticulatedState {
 /// pivots_lem[dof]; qdd_lem is then not written and the pivots of the dofs
 /// after it are undefined.  No relative tolerance (Step 1's kPivotTolerance
 /// compares with M[j, j], not formed here): a tiny positive pivot is left to
-/// the digits test.  Instantiated for the four combinations, as
-/// jr::bias_forces.
+/// the digits test.  ratio: when not null, the smallest local pivot ratio
+/// (LocalPivotRatio; one more 6-vector transform per body and parent dof).
+/// Instantiated for the four combinations, as jr::bias_forces.
 template <bool kGravity, bool kDamping>
 std::int32_t articulated_dynamics(const Model& model, BodyState* bodies, ArticulatedState* work, const double* v,
-                                  const double* tau, double* qdd_lem, double* pivots_lem);
+                                  const double* tau, double* qdd_lem, double* pivots_lem,
+                                  LocalPivotRatio* ratio = nullptr);
 
 /// Runtime switch over the four instantiations.
 std::int32_t articulated_dynamics(const Model& model, BodyState* bodies, ArticulatedState* work, const double* v,
                                   const double* tau, double* qdd_lem, double* pivots_lem, bool gravity,
-                                  bool damping);
+                                  bool damping, LocalPivotRatio* ratio = nullptr);
+
+/// Estimated relative error max_j |qdd_j - qdd*_j| / max_j |qdd*_j| of qdd
+/// from a successful articulated_dynamics() at the same state (bodies and
+/// work as it left them; their v, a, f and work's pA, u, a are overwritten),
+/// qdd* the exact solution of M qdd = tau - h (issue 29, item 3).  One step
+/// of iterative refinement's error estimate, O(n): the residual r = tau -
+/// ID(q, v, qdd) by the recursive Newton-Euler algorithm (inverse_dynamics),
+/// d1 = M^-1 r with the same factorization (articulated_solve); then, since r
+/// computed in double carries rounding of the order of the error it is to
+/// reveal, with w = |r| + eps |S_j^T| |f_j| (f_j the subtree force of the
+/// residual's pass: each entry's rounding floor), z = M^-1 w and d2 =
+/// M^-1 (sign(z) w), signed so that M^-1 cannot cancel it (one step of
+/// Hager's estimator of || |M^-1| w ||).  Four O(n) passes in all.  Returns
+/// max(|d1|, |z|, |d2|) / max |qdd|.  diagonal_bounds (nv, Lemma 2 order;
+/// optional, 0 for none): upper bounds B_j of M_jj, which add eps sqrt(B_j)
+/// sum_k sqrt(B_k) |qdd_k| >= eps (|M| |qdd|)_j to w: where qdd lies along a
+/// nearly singular direction, M qdd (and f_j) is small while |M| |qdd| is not
+/// (a gimbal at its singular state).  tau as given to articulated_dynamics();
+/// scratch: 2 nv doubles.
+double articulated_error_estimate(const Model& model, BodyState* bodies, ArticulatedState* work, const double* v,
+                                  const double* tau, const double* qdd_lem, double* scratch, bool gravity,
+                                  bool damping, const double* diagonal_bounds = nullptr);
 
 /// x = M^-1 f, in place on x_lem ((nv), Lemma 2 order both ways), with the
 /// factorization left in work by a successful articulated_dynamics() at the
