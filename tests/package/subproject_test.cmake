@@ -1,10 +1,12 @@
 # cmake -DJRGEN_SOURCE_DIR=... -DWORK_DIR=... -DMODE=subdirectory|fetchcontent [-DBUILD=ON]
 #       [-DGENERATOR=...] [-DMAKE_PROGRAM=...] [-DCXX_COMPILER=...] [-DEIGEN3_DIR=...]
-#       -P subproject_test.cmake
+#       [-DJRGEN_PROGRAM=<a built jrgen>] -P subproject_test.cmake
 # Configures tests/package/subproject with jrgen pulled in by MODE; with
 # BUILD=ON also builds it (jrgen, its runtime and a generated arm7 solver),
 # runs the program and checks its line "arm7: forward_dynamics -> 0, qdd[0] =
 # <finite number>".  Debug without -g (-O0) keeps the compile of jrgen short.
+# JRGEN_PROGRAM: the subproject generates with that program (its option
+# JRGEN_GENERATOR) and does not compile its own generator.
 cmake_minimum_required(VERSION 3.20)
 foreach(var JRGEN_SOURCE_DIR WORK_DIR MODE)
   if(NOT ${var})
@@ -16,7 +18,7 @@ file(REMOVE_RECURSE "${dir}")
 set(args -S "${CMAKE_CURRENT_LIST_DIR}/subproject" -B "${dir}" "-DJRGEN_SOURCE=${JRGEN_SOURCE_DIR}"
          "-DMODE=${MODE}" -DCMAKE_BUILD_TYPE=Debug "-DCMAKE_CXX_FLAGS_DEBUG=-O0")  # the quickest full build
 foreach(pair GENERATOR:-G MAKE_PROGRAM:-DCMAKE_MAKE_PROGRAM= CXX_COMPILER:-DCMAKE_CXX_COMPILER=
-             EIGEN3_DIR:-DEigen3_DIR= LAUNCHER:-DCMAKE_CXX_COMPILER_LAUNCHER=)
+             EIGEN3_DIR:-DEigen3_DIR= LAUNCHER:-DCMAKE_CXX_COMPILER_LAUNCHER= JRGEN_PROGRAM:-DJRGEN_GENERATOR=)
   string(REPLACE ":" ";" pair "${pair}")
   list(GET pair 0 var)
   list(GET pair 1 flag)
