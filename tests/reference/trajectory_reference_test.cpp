@@ -192,7 +192,7 @@ TEST(TrajectoryReference, ExtremeCases) {
       {x::light_tip_1e6(), "dp_light_tip_1e6", 0.05},   {x::light_tip_1e9(), "dp_light_tip_1e9", 0.05},
       {x::light_tip_1e12(), "dp_light_tip_1e12", 0.05}, {x::heavy_tip_1e6(), "dp_heavy_tip_1e6", 0.05},
       {x::heavy_tip_1e9(), "dp_heavy_tip_1e9", 0.05},   {x::point_spring_1e9(), "point_spring_1e9", 0.05},
-      {x::rope50(), "rope50", 0.01},
+      {x::rope50(), "rope50", 0.01},                    {x::rope50(M_PI / 2), "rope50_horizontal", 0.01},
       {x::near_toggle(), "near_toggle", 0.05},          {x::top(100), "top_100", 0.01},
       {x::top(1000), "top_1000", 0.01}};
   for (const ExtremeFile& e : cases) {
