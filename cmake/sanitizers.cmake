@@ -9,14 +9,16 @@
 #   JRGEN_FUZZ=ON      Clang only: the libFuzzer target tests/fuzz and just the
 #                      libraries it needs, with coverage instrumentation and
 #                      ASan + UBSan.  scripts/fuzz.sh builds and runs it.
+#                      With JRGEN_SANITIZE=ON as well: the whole sanitizer
+#                      build, every file with libFuzzer's coverage, and the
+#                      fuzz target in it (scripts/sanitize.sh; CI then fuzzes
+#                      with that build instead of compiling the generator a
+#                      third time, docs/testing.md "CI time").
 #   JRGEN_TSAN=ON      ThreadSanitizer, Clang only (with LLVM's libomp, whose
 #                      OMPT tool Archer tells TSan about OpenMP's
 #                      synchronization; GCC's libgomp is not instrumented and
 #                      gives false reports).  scripts/tsan.sh builds and runs
 #                      the threaded programs.
-if(JRGEN_SANITIZE AND JRGEN_FUZZ)
-  message(FATAL_ERROR "JRGEN_SANITIZE and JRGEN_FUZZ are separate builds: choose one (JRGEN_FUZZ includes ASan + UBSan)")
-endif()
 if(JRGEN_TSAN AND (JRGEN_SANITIZE OR JRGEN_FUZZ))
   message(FATAL_ERROR "JRGEN_TSAN is a build of its own: ThreadSanitizer cannot be combined with ASan")
 endif()
@@ -31,7 +33,7 @@ endif()
 
 set(JRGEN_SANITIZER_FLAGS -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer)
 
-if(JRGEN_SANITIZE)
+if(JRGEN_SANITIZE AND NOT JRGEN_FUZZ)
   add_compile_options(${JRGEN_SANITIZER_FLAGS})
   add_link_options(-fsanitize=address,undefined)
 endif()
@@ -52,6 +54,9 @@ if(JRGEN_FUZZ)
   endif()
   # Coverage feedback for libFuzzer in every library; -fsanitize=fuzzer (its
   # main) is linked into the fuzz program alone (tests/fuzz/CMakeLists.txt).
-  add_compile_options(-fsanitize=fuzzer-no-link ${JRGEN_SANITIZER_FLAGS} -g)
+  add_compile_options(-fsanitize=fuzzer-no-link ${JRGEN_SANITIZER_FLAGS})
+  if(NOT JRGEN_SANITIZE)
+    add_compile_options(-g)
+  endif()
   add_link_options(-fsanitize=address,undefined)
 endif()
