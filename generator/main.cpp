@@ -1,4 +1,4 @@
-// jrgen command line (INTERFACE.md section 1).  Parses options, runs the
+// jrgen command line (docs/interface.md section 1).  Parses options, runs the
 // stages urdf -> topology -> emit, and reports any error as one line.
 #include <fmt/format.h>
 
@@ -376,7 +376,7 @@ struct NamedPath {
   std::string path;
 };
 
-// INTERFACE.md section 1: no path jrgen writes may be one of its inputs or
+// docs/interface.md section 1: no path jrgen writes may be one of its inputs or
 // another of its outputs, compared as files (links and hard links included).
 // Checked before anything is read or written.
 void check_outputs_are_distinct(const std::vector<NamedPath>& inputs, const std::vector<NamedPath>& outputs) {

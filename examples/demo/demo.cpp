@@ -14,7 +14,7 @@
 
 namespace {
 
-// q <- q "+" dv along velocity coordinates (INTERFACE.md section 3): plain
+// q <- q "+" dv along velocity coordinates (docs/interface.md section 3): plain
 // addition, quaternions by the exponential map of the angular part.
 void integrate(Eigen::VectorXd& q, const Eigen::VectorXd& dv) {
   for (int j = 0; j < demo::njoints; ++j) {

@@ -8,7 +8,7 @@
 
 int main() {
   // Neutral configuration: every coordinate zero except the quaternions,
-  // which are the identity (w = 1).  INTERFACE.md section 3: a floating
+  // which are the identity (w = 1).  docs/interface.md section 3: a floating
   // joint's q is position (3) then quaternion w, x, y, z; a ball joint's q is
   // quaternion w, x, y, z.  The kind is read off the joint's q span.
   std::vector<double> q(hmmwv::nq, 0.0);

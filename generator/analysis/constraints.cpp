@@ -568,7 +568,7 @@ Assembly find_assembly(const ir::Robot& robot, const topology::Tree& tree, Assem
     const topology::Cut& cut = tree.cuts[against_definition];
     const ir::CutJoint& ic = robot.cuts[cut.cut_ir];
     throw Error(ic.where, cut_element(ic), ic.name,
-                fmt::format("the loop cannot be closed as defined: its rows close only with {} (INTERFACE.md "
+                fmt::format("the loop cannot be closed as defined: its rows close only with {} (docs/interface.md "
                             "section 2); check <origin>, <child_origin> and <axis>, or give a start near an "
                             "assembled configuration with --assemble-from Q.txt (docs/assembly.md)",
                             cut.type == ir::CutType::Fixed ? "the two frames half a turn apart"
@@ -631,7 +631,7 @@ double assemble(const topology::Tree& tree, RuntimeModel& rt, Eigen::VectorXd& q
 
 namespace {
 
-// Default distances: at the zero configuration (INTERFACE.md section 2); a
+// Default distances: at the zero configuration (docs/interface.md section 2); a
 // distance below kCoincident L is 0, an error.
 void default_distances(const ir::Robot& robot, topology::Tree& tree) {
   const double L = length_scale(tree);

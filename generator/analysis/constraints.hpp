@@ -1,4 +1,4 @@
-// Generation-time analysis of the cut joints (INTERFACE.md section 2):
+// Generation-time analysis of the cut joints (docs/interface.md section 2):
 // default distances, assembly, and the choice of an independent subset of
 // constraint rows, checked at several assembled configurations.
 #pragma once

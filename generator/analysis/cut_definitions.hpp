@@ -1,4 +1,4 @@
-// The part of a cut joint's definition (INTERFACE.md section 2) that its
+// The part of a cut joint's definition (docs/interface.md section 2) that its
 // constraint rows cannot see.  Two rows for "the axis stays aligned" vanish
 // for a reversed axis too, and three rows for "the orientation stays fixed"
 // vanish at half turns (any smooth rows of that count must vanish somewhere

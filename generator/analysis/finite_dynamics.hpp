@@ -1,5 +1,5 @@
 // Generation-time check that the model's dynamics are representable in
-// double precision (INTERFACE.md section 1: exit 0 means the output works).
+// double precision (docs/interface.md section 1: exit 0 means the output works).
 #pragma once
 
 #include <Eigen/Core>

@@ -76,7 +76,7 @@ struct Solver {
 /// Throws jrgen::Error for models the generated code cannot serve.
 Solver emit_solver(const ir::Robot& robot, const topology::Tree& tree, const Options& options);
 
-/// The namespace derived from a robot name (INTERFACE.md section 1), one
+/// The namespace derived from a robot name (docs/interface.md section 1), one
 /// documented rule (docs): every character that is not [A-Za-z0-9_] becomes
 /// '_', runs of '_' become one, leading '_' are dropped (a global name that
 /// starts with '_' is reserved), an empty or digit-led result gets the prefix

@@ -1,4 +1,4 @@
-// The force elements' block of the specialized terms (INTERFACE.md section
+// The force elements' block of the specialized terms (docs/interface.md section
 // 2b): springs between two bodies (or a body and the base), joint springs and
 // joint forces, as straight-line Program values.  The formulas are those of
 // the runtime's jr::force_elements (runtime/src/forces.cpp), in the same

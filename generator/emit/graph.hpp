@@ -1,4 +1,4 @@
-// Pictures of a mechanism (INTERFACE.md section 1, --graph; issue 22):
+// Pictures of a mechanism (docs/interface.md section 1, --graph; issue 22):
 //   - the topology graph as Graphviz DOT: bodies with the links fused into
 //     them, tree joints with their types, cut joints drawn apart (dashed), and
 //     the Lemma 2 numbering, as in the paper's Figures 3 and 4;

@@ -1,5 +1,5 @@
 // The namespace of a generated solver: sanitize_identifier() derives it from
-// a robot name, invalid_namespace() checks a --namespace (INTERFACE.md
+// a robot name, invalid_namespace() checks a --namespace (docs/interface.md
 // section 1; declared in emit/emitter.hpp).
 #include <algorithm>
 #include <iterator>

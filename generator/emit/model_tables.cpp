@@ -105,7 +105,7 @@ std::string assembled_values(const topology::Tree& t, const Options& options) {
   return out;
 }
 
-// kForces (INTERFACE.md section 2b: springs, joint springs, joint forces) for
+// kForces (docs/interface.md section 2b: springs, joint springs, joint forces) for
 // the runtime's force_elements() and potential_energy(); nothing for a model
 // without them (forces_ptr: nullptr).
 void force_tables(const topology::Tree& t, TemplateValues& v) {

@@ -14,7 +14,7 @@ namespace jrgen {
 /// \xHH), so that a message quoting the user's text stays one line.
 std::string one_line(const std::string& text);
 
-/// Formats as "file:line: <element> 'name': what is wrong" (STYLE.md section 5);
+/// Formats as "file:line: <element> 'name': what is wrong" (docs/conventions.md, "Errors");
 /// the line is left out when unknown, the element part when empty.  Always one
 /// line: control characters in any part are escaped (one_line).
 /// The candidate closest to `word` when it looks like a misspelling of it

@@ -1,6 +1,6 @@
 // jrgen intermediate representation: the mechanism as the user wrote it.
 //
-// Plain structs, in *user order* (INTERFACE.md section 3): links and joints as
+// Plain structs, in *user order* (docs/interface.md section 3): links and joints as
 // they come out of the URDF, fixed joints included, nothing fused or renumbered.
 // The topology stage (generator/topology) turns this into the Lemma 2 ordered
 // body tree; the URDF reader (generator/urdf) is the only producer.
@@ -42,7 +42,7 @@ struct Link {
 
 enum class JointType { Fixed, Revolute, Continuous, Prismatic, Floating, Planar, Ball };
 
-/// Velocity coordinates of a joint (INTERFACE.md section 3).
+/// Velocity coordinates of a joint (docs/interface.md section 3).
 int joint_nv(JointType type);
 /// Position coordinates of a joint (quaternions count 4).
 int joint_nq(JointType type);
@@ -63,10 +63,10 @@ struct Joint {
 };
 
 /// Mimic: the one row q_this - multiplier q_leader - offset = 0 of a URDF
-/// <mimic> (INTERFACE.md section 2b), placed among the cut joints.
+/// <mimic> (docs/interface.md section 2b), placed among the cut joints.
 enum class CutType { Spherical, Revolute, Prismatic, Cylindrical, Universal, Fixed, Distance, Mimic };
 
-/// Constraint rows of a cut joint type (INTERFACE.md section 2).
+/// Constraint rows of a cut joint type (docs/interface.md section 2).
 int cut_rows(CutType type);
 const char* cut_type_name(CutType type);
 
@@ -90,7 +90,7 @@ struct CutJoint {
   SourceLocation where;
 };
 
-// ---- Force elements (INTERFACE.md section 2b) -------------------------------------
+// ---- Force elements (docs/interface.md section 2b) -------------------------------------
 
 /// <spring>: a force along the line between a point on link k (<parent>) and
 /// one on link l (<child>), of magnitude stiffness (L - rest_length) + damping

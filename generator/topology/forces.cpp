@@ -1,4 +1,4 @@
-// Force elements on the body tree (INTERFACE.md section 2b): <spring> points
+// Force elements on the body tree (docs/interface.md section 2b): <spring> points
 // moved onto the bodies that carry their links (fixed joints fused), rest
 // lengths resolved; <joint_spring> and <joint_force> onto their joints' bodies.
 #include <algorithm>

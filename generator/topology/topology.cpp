@@ -74,13 +74,13 @@ void snap_rounding_residues(ir::Inertial& in) {
   snap_rounding_residues(in.I_com, in.I_com.cwiseAbs().maxCoeff());
 }
 
-// Planar in-plane directions, cyclic from the normal (INTERFACE.md section 3).
+// Planar in-plane directions, cyclic from the normal (docs/interface.md section 3).
 void planar_directions(const Eigen::Vector3d& n, Eigen::Vector3d& e1, Eigen::Vector3d& e2) {
   int axis = 0;
   n.cwiseAbs().maxCoeff(&axis);
   const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
   e1 = Eigen::Vector3d::Unit(a1);
-  e2 = Eigen::Vector3d::Unit(a2);  // for a negative normal too, as INTERFACE.md states it
+  e2 = Eigen::Vector3d::Unit(a2);  // for a negative normal too, as docs/interface.md states it
 }
 
 bool is_finite(const ir::Pose& X) { return X.R.allFinite() && X.p.allFinite(); }
@@ -114,7 +114,7 @@ std::string raise_to_bounds(ir::Inertial& in, const MassBounds& bounds) {
   return what;
 }
 
-// Every constant the emitter prints for a body must be finite (INTERFACE.md
+// Every constant the emitter prints for a body must be finite (docs/interface.md
 // section 1): names the joint whose frame overflows, or the link whose
 // inertial does (else the joint carrying links whose fused sum does).
 void check_finite_body(const ir::Robot& robot, const Body& body, const std::vector<LinkPlacement>& links) {

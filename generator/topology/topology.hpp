@@ -33,7 +33,7 @@ struct Body {
   Eigen::Vector3d axis = Eigen::Vector3d::UnitX();  ///< revolute/prismatic axis, planar normal
   Eigen::Vector3d e1 = Eigen::Vector3d::Zero(), e2 = Eigen::Vector3d::Zero();  ///< planar
   double damping = 0.0;   ///< URDF <dynamics damping> plus a <joint_spring>'s damping
-  /// One-dof joints (INTERFACE.md section 2b): <joint_spring> stiffness and
+  /// One-dof joints (docs/interface.md section 2b): <joint_spring> stiffness and
   /// rest, <joint_force> value; generalized force -stiffness (q - rest) + force.
   double stiffness = 0.0, rest = 0.0, force = 0.0;
   ir::Inertial inertial;  ///< fused mass properties, body frame
@@ -77,7 +77,7 @@ struct Cut {
   double multiplier = 1.0, offset = 0.0;
 };
 
-/// A <spring> placed on the body tree (INTERFACE.md section 2b).
+/// A <spring> placed on the body tree (docs/interface.md section 2b).
 struct Spring {
   std::string name;
   int spring_ir = -1;          ///< index into ir::Robot::springs
@@ -150,7 +150,7 @@ struct Subtree {
 std::vector<Subtree> partition_subtrees(const Tree& tree, int parts, int max_separator);
 
 /// Lower bounds on each moving body's fused mass properties
-/// (INTERFACE.md section 1, --bound-mass and --bound-inertia; MuJoCo's
+/// (docs/interface.md section 1, --bound-mass and --bound-inertia; MuJoCo's
 /// boundmass and boundinertia).  0: no bound.
 struct MassBounds {
   double mass = 0.0;     ///< kg
@@ -184,7 +184,7 @@ bool dof_translates(ir::JointType type, int k);
 /// M, test their pivots against it (docs/status.md).
 std::vector<double> mass_diagonal_bounds(const Tree& tree);
 
-/// The precondition the generated factorization relies on (STYLE.md section 5,
+/// The precondition the generated factorization relies on (docs/conventions.md, "Errors",
 /// as Pinocchio's CRBA checker): parent after child, dof chains consistent,
 /// packed layout complete.  Throws std::logic_error when violated.
 void check_lemma2(const Tree& tree);

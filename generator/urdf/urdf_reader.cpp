@@ -973,7 +973,7 @@ ir::CutJoint read_ball_constraint(const Doc& doc, const TiXmlElement* e, int num
 }
 
 // ---------------------------------------------------------------------------
-// Force elements and mimic rows (INTERFACE.md section 2b)
+// Force elements and mimic rows (docs/interface.md section 2b)
 // ---------------------------------------------------------------------------
 
 int find_joint(const ir::Robot& robot, const std::string& name) {

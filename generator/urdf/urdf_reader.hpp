@@ -3,7 +3,7 @@
 // The only stage that sees urdfdom and TinyXML.  A TinyXML pre-pass validates
 // the document and records line numbers; urdfdom then reads the standard URDF
 // content (links, inertials, joints) from a cleaned copy of the document.
-// Extensions read by the pre-pass alone (INTERFACE.md section 2):
+// Extensions read by the pre-pass alone (docs/interface.md section 2):
 //   - <joint type="ball"> and Drake's <drake:joint type="ball">: ball joints;
 //   - <loop_joint> inside <robot>, and <loop_joints> files given with --cuts;
 //   - Drake's <drake:ball_constraint>: a spherical cut joint.
@@ -12,7 +12,7 @@
 // Transmissions, gazebo tags, visuals and collisions are ignored.
 //
 // Every error is a jrgen::Error whose what() is one line,
-// "file:line: <element> 'name': what is wrong" (STYLE.md section 5).
+// "file:line: <element> 'name': what is wrong" (docs/conventions.md, "Errors").
 #pragma once
 
 #include <string>

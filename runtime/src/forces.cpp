@@ -1,5 +1,5 @@
 // jrgen runtime: force elements (springs, joint springs, joint forces) and
-// the potential energy (INTERFACE.md section 2b; formulas in runtime.hpp).
+// the potential energy (docs/interface.md section 2b; formulas in runtime.hpp).
 //
 // A force f (world coordinates) at the world point P of body B enters the
 // generalized forces of the dofs on the path from B to the base as J^T f:

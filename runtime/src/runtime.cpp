@@ -40,7 +40,7 @@ Matrix3d mat3_row_major(const double* x) {
   return R;
 }
 
-// Rotation of a unit quaternion (w, x, y, z); normalized here (INTERFACE.md 3).
+// Rotation of a unit quaternion (w, x, y, z); normalized here (docs/interface.md 3).
 Matrix3d quaternion_rotation(const double* q) {
   Eigen::Quaterniond quat(q[0], q[1], q[2], q[3]);
   quat.normalize();

@@ -713,7 +713,7 @@ void quat_times_pure(const double* p, const double* w, double* out) {
 }  // namespace
 
 Mechanism::Mechanism(const System& system, MechanismSettings settings) : sys_(system), set_(settings) {
-  // Joints whose q has one more entry than v hold a quaternion (INTERFACE.md
+  // Joints whose q has one more entry than v hold a quaternion (docs/interface.md
   // section 3): ball (4, 3) at its first entry, floating (7, 6) after x.
   for (int j = 0; j < sys_.njoints; ++j) {
     const int q0 = sys_.joint_q_index[j], v0 = sys_.joint_v_index[j];

@@ -11,7 +11,7 @@
 
 namespace jrgen::bench {
 
-/// The generated API (INTERFACE.md section 4) of one solver, as plain pointers.
+/// The generated API (docs/interface.md section 4) of one solver, as plain pointers.
 struct SolverApi {
   int nq, nv;
   int (*forward_dynamics)(const double* q, const double* v, const double* tau, double* qdd,

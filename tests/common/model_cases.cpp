@@ -30,7 +30,7 @@ std::string read_text(const std::string& path) {
 }
 
 namespace {
-// The model's text without the force elements of INTERFACE.md 2b (<spring>,
+// The model's text without the force elements of docs/interface.md 2b (<spring>,
 // <joint_spring>, <joint_force>): the independent reference dynamics
 // (tests/reference/) knows none, so the cases that compare against it see the
 // mechanism alone.  The force elements have their own tests (forces_test,
@@ -96,7 +96,7 @@ std::string give_massless_links_inertia(const std::string& urdf) {
   return printer.CStr();
 }
 
-// The URDF without its joints' <mimic> elements.  Since INTERFACE.md section
+// The URDF without its joints' <mimic> elements.  Since docs/interface.md section
 // 2b a <mimic> is a constraint row, which would make closed-loop models of
 // baxter, panda, pr2, romeo and talos; the external cases test the tree
 // dynamics (against the reference and the peers, which treat mimic joints as
@@ -249,7 +249,7 @@ std::vector<ModelCase> loop_models() {
     }
     out.push_back({"loops_long_names", text, ""});
   }
-  // The four-bar with adversarial names (INTERFACE.md section 1: generated
+  // The four-bar with adversarial names (docs/interface.md section 1: generated
   // code compiles with -Wall -Wextra -Werror whatever the names): a 300
   // character joint name, quotes and backslashes, printf directives, comment
   // delimiters, trigraphs (-Wtrigraphs), a line break, a tab, markup and

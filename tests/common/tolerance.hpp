@@ -1,4 +1,4 @@
-// One helper for numeric comparisons (STYLE.md section 6): relative error of a
+// One helper for numeric comparisons (docs/conventions.md, "Tests"): relative error of a
 // result against a reference, normwise, with an absolute floor for results
 // that are legitimately near zero.
 #pragma once

@@ -7,7 +7,7 @@
 // a --cuts file.  Every outcome but two is a bug the fuzzer reports:
 //   - success, or
 //   - a jrgen::Error whose message is one non-empty line of printable text
-//     (no control characters; STYLE.md section 5).
+//     (no control characters; docs/conventions.md, "Errors").
 // Any other exception is jrgen's "internal error" (exit 2), and is reported
 // as a crash (abort), like the sanitizers' findings.
 //

@@ -44,7 +44,7 @@ const GeneratedSolver& solver(const std::string& target) {
 }
 
 // q uniform in [-1, 1], quaternion entries included: the solver normalizes
-// them (INTERFACE.md section 3).
+// them (docs/interface.md section 3).
 Eigen::VectorXd random_q(const GeneratedSolver& s, std::mt19937_64& rng) {
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   Eigen::VectorXd q(s.nq);

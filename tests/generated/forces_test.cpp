@@ -1,4 +1,4 @@
-// Force elements (INTERFACE.md section 2b: springs, joint springs, joint
+// Force elements (docs/interface.md section 2b: springs, joint springs, joint
 // forces) in h and in the potential energy, on the three routes of a tree's
 // forward_dynamics: the specialized composite-rigid-body and articulated-body
 // programs (JRGEN_TERMS_ROUTE) and the runtime's terms (JRGEN_TERMS_LIMIT=0),

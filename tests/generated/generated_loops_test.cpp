@@ -219,7 +219,7 @@ TEST_P(GeneratedLoops, SingularConstraintRowsAreReportedNamingTheLoop) {
   EXPECT_NE(std::string(s.last_error()).find("loop joint '"), std::string::npos) << s.last_error();
 }
 
-// The paper's model and the INTERFACE.md examples have known dimensions.
+// The paper's model and the docs/interface.md examples have known dimensions.
 TEST(GeneratedLoopsDimensions, PaperAndExampleModels) {
   for (const GeneratedSolver& s : testing::generated_solvers()) {
     if (s.model_case == "loops_hmmwv14") {

@@ -1,4 +1,4 @@
-// Run-time status codes of the generated solvers (INTERFACE.md section 6;
+// Run-time status codes of the generated solvers (docs/interface.md section 6;
 // issue 19, items 4 and 5), on every solver of the registry:
 //   - a NaN or infinity anywhere in q, v or tau gives code 3 naming the
 //     coordinate and its joint; in solve_augmented's M, Q, Phiq or gamma

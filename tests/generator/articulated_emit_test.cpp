@@ -60,7 +60,7 @@ TEST_P(ArticulatedEmit, SolvesTheEquationsOfMotionToWorkingPrecision) {
     for (int j = 0; j < m.tree.nv; ++j) qdd[m.tree.dof_user[j]] = Program::value(result.qdd[j], x);
     const Eigen::VectorXd h = jrgen::reference::bias_forces(m.robot, q, v, kGravity);
     const Eigen::MatrixXd M = jrgen::reference::mass_matrix(m.robot, q);
-    // The force elements (INTERFACE.md 2b; the reference knows none): the runtime's
+    // The force elements (docs/interface.md 2b; the reference knows none): the runtime's
     // jr::force_elements, Lemma 2 order mapped to user order.
     Eigen::VectorXd fe = Eigen::VectorXd::Zero(m.tree.nv);
     if (m.tree.has_force_elements()) {

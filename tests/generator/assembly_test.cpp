@@ -6,7 +6,7 @@
 //                      coupled four-bars folded flat) assemble: the configuration
 //                      jrgen uses closes every loop, checked by an independent
 //                      formulation (reference link poses and the definitions of
-//                      INTERFACE.md section 2, not the runtime's Phi).
+//                      docs/interface.md section 2, not the runtime's Phi).
 //   AssemblyModels     every loop model case (the project's models, trains,
 //                      random trees with random cuts), assembled as drawn, keeps
 //                      the zero configuration, with no assembly note.
@@ -64,7 +64,7 @@ ir::Robot scaled(ir::Robot robot, double s) {
   return robot;
 }
 
-// The largest violation of a cut's definition (INTERFACE.md section 2) at q,
+// The largest violation of a cut's definition (docs/interface.md section 2) at q,
 // from the reference's link poses: lengths divided by `length`, angles as the
 // sine of the misalignment.  Independent of the runtime's rows.
 double closure_error(const ir::Robot& robot, const ir::CutJoint& cut, const Eigen::VectorXd& q, double length,

@@ -1,4 +1,4 @@
-// Tests of the jrgen command line (INTERFACE.md section 1; STYLE.md section 5),
+// Tests of the jrgen command line (docs/interface.md section 1; docs/conventions.md, "Errors"),
 // run on the real binary (JRGEN_EXECUTABLE) through fork/exec:
 //   CliErrors       every bad input: exit status 1, exactly one line on stderr
 //                   naming the file (and line) and what is wrong, nothing on
@@ -205,7 +205,7 @@ TEST(CliErrors, BadMethod) {
   expect_clean_failure({{kPendulum, "-o", "@OUT@/solver.cpp", "--method"}, {"--method"}, {}});
 }
 
-// INTERFACE.md section 1: a valid C++ identifier, not a keyword, not reserved
+// docs/interface.md section 1: a valid C++ identifier, not a keyword, not reserved
 // ([lex.name]: "__" anywhere, a leading '_' at global scope), not empty.
 TEST(CliErrors, BadNamespace) {
   for (const std::string ns : {"9lives", "a-b", "a::b", "a b", "", "__x", "a__b", "x__", "_X", "_x", "_", "int",
@@ -276,7 +276,7 @@ TEST(CliErrors, ReadOnlyOutputFolder) {
                         "ro"});
 }
 
-// -- no output onto an input or onto another output (INTERFACE.md section 1) ----
+// -- no output onto an input or onto another output (docs/interface.md section 1) ----
 // The inputs are copies in the working folder, so a regression damages only
 // the copies; the snapshot of that folder then reports it.
 
@@ -545,7 +545,7 @@ std::string folder_case_name(const ::testing::TestParamInfo<FolderCase>& info) {
 
 INSTANTIATE_TEST_SUITE_P(TestsErrors, CliErrorFolder, ::testing::ValuesIn(folder_cases()), folder_case_name);
 
-// The folder sweep must hold the cases INTERFACE.md section 1 singles out.
+// The folder sweep must hold the cases docs/interface.md section 1 singles out.
 TEST(CliErrors, FolderHoldsTheRequiredCases) {
   const std::vector<FolderCase> cases = folder_cases();
   EXPECT_GE(cases.size(), 40u);
@@ -1446,7 +1446,7 @@ TEST(CliReportByHand, RecountCountsWhatItShould) {
 }
 
 // ===========================================================================
-// Closed loops: notes and errors of the constraint analysis (INTERFACE.md
+// Closed loops: notes and errors of the constraint analysis (docs/interface.md
 // section 2; fixtures in tests/cli/)
 // ===========================================================================
 

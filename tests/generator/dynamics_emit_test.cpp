@@ -94,7 +94,7 @@ TEST_P(DynamicsEmit, MatchesTheRuntime) {
     jr::mass_matrix_packed(rm.model(), rm.workspace(), M_ref.data());
     jr::bias_forces(rm.model(), rm.workspace(), v.data(), h_ref.data(), true, damping);
     jr::bias_forces(rm.model(), rm.workspace(), v.data(), h0_ref.data(), false, damping);
-    // The force elements (INTERFACE.md 2b: models/iftomm_a05_flyball.urdf,
+    // The force elements (docs/interface.md 2b: models/iftomm_a05_flyball.urdf,
     // andrews_squeezer.urdf) are in the emitted h, and jr::force_elements adds them.
     if (tree.has_force_elements()) {
       Eigen::VectorXd fe = Eigen::VectorXd::Zero(tree.nv);

@@ -1,4 +1,4 @@
-// Golden regression of the emitted solver (STYLE.md section 6).
+// Golden regression of the emitted solver (docs/conventions.md, "Tests").
 //
 // Each folder tests/golden/<case>/ holds
 //   args        one line: the model (a file in models/), then jrgen options;
@@ -109,7 +109,7 @@ TEST_P(Golden, MatchesGeneratedCode) {
 INSTANTIATE_TEST_SUITE_P(Cases, Golden, ::testing::ValuesIn(golden_cases()),
                          [](const ::testing::TestParamInfo<std::string>& info) { return info.param; });
 
-// The cases STYLE.md section 6 and the test plan call for, each complete.
+// The cases docs/conventions.md, "Tests" and the test plan call for, each complete.
 TEST(GoldenSetup, RequiredCasesArePresent) {
   const std::vector<std::string> cases = golden_cases();
   for (const char* required : {"arm7", "arm7_ldlt", "hmmwv14", "legged30"})

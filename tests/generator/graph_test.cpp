@@ -1,4 +1,4 @@
-// --graph and --sparsity (emit/graph.cpp; INTERFACE.md section 1, issue 22):
+// --graph and --sparsity (emit/graph.cpp; docs/interface.md section 1, issue 22):
 // the DOT text names every body with its Lemma 2 number, every tree joint
 // with its type and every cut (dashed); the sparsity picture counts the
 // entries Lemma 2 and Lemma 3 predict, recounted here from the definitions;

@@ -1,5 +1,5 @@
 // topology::build_tree with MassBounds (--bound-mass, --bound-inertia;
-// INTERFACE.md section 1), against values worked out by hand:
+// docs/interface.md section 1), against values worked out by hand:
 //   - a body below the bounds is raised exactly to them, about its own
 //     principal axes (the eigenvectors of I_com are kept);
 //   - a body at or above the bounds is untouched, bit for bit;

@@ -136,7 +136,7 @@ struct ModelCounts {
   const char* robot_name;
   int links, revolute, continuous, prismatic, fixed;
   int links_without_inertial;
-  int mimics;  ///< <mimic> elements of joints: one constraint row each (INTERFACE.md 2b)
+  int mimics;  ///< <mimic> elements of joints: one constraint row each (docs/interface.md 2b)
 };
 
 // Counted independently (Python's xml.etree over the files).
@@ -405,7 +405,7 @@ TEST(UrdfReader, IgnoresTransmissionGazeboVisuals) {
 </robot>)";
   const ir::Robot robot = read_robot_string(xml, "ignored.urdf");
   EXPECT_EQ(joint_names(robot), (std::vector<std::string>{"j1", "j2"}));
-  // INTERFACE.md section 2b: the mimic joint keeps its coordinate and gets an
+  // docs/interface.md section 2b: the mimic joint keeps its coordinate and gets an
   // exact constraint row q_j2 = -1 q_j1 + 0, a cut named after it.
   EXPECT_EQ(robot.nv(), 2);
   ASSERT_EQ(robot.cuts.size(), 1u);

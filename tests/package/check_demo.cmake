@@ -2,7 +2,7 @@
 #   cmake -DDEMO=<jrgen_demo> -DURDF=<its model> -P check_demo.cmake
 # * exit status 0;
 # * the sizes it prints (nq, nv, joints) equal those counted here from the
-#   URDF's joint types (INTERFACE.md section 3: floating 7/6, ball 4/3,
+#   URDF's joint types (docs/interface.md section 3: floating 7/6, ball 4/3,
 #   revolute, continuous and prismatic 1/1, fixed none), and nc > 0 (the
 #   HMMWV's cuts);
 # * the relative errors of qdd and of Phiq^T lambda against its dense

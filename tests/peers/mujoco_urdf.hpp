@@ -13,9 +13,9 @@
 // Options: contacts, joint limits, equality constraints, friction loss, the
 // constraint solver, actuation and sensors disabled; passive forces (joint
 // damping) kept when the model has damping, since jrgen's h holds URDF
-// damping (INTERFACE.md section 4).  tau goes into qfrc_applied.
+// damping (docs/interface.md section 4).  tau goes into qfrc_applied.
 //
-// Coordinates (INTERFACE.md section 3, docs/conventions.md): revolute,
+// Coordinates (docs/interface.md section 3, docs/conventions.md): revolute,
 // continuous and prismatic joints map one to one.  A floating joint whose
 // origin is the identity has jrgen's coordinates exactly: position in the
 // joint frame (= world) and quaternion w, x, y, z in qpos; linear velocity in

@@ -22,7 +22,7 @@
 
 namespace jrgen::peers {
 
-/// The generated API (INTERFACE.md section 4) as plain pointers.
+/// The generated API (docs/interface.md section 4) as plain pointers.
 struct GeneratedApi {
   int nq, nv, nc, njoints;
   const char* const* joint_names;

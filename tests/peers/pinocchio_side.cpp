@@ -7,7 +7,7 @@
 // Pinocchio reads the URDF itself (pinocchio::urdf::buildModel); its
 // algorithms leave joint damping out, so both timed calls subtract it first
 // (jrgen's h holds URDF damping).  Coordinates, converted outside the timed
-// calls (INTERFACE.md section 3 for jrgen's):
+// calls (docs/interface.md section 3 for jrgen's):
 //   revolute, prismatic       the same
 //   continuous                Pinocchio q = (cos, sin) of the angle; v, qdd the same
 //   floating (free flyer)     q = (p, quaternion x, y, z, w); v = (R^T p_dot, omega),

@@ -106,7 +106,7 @@ void ts_solve(const double* y, const double* v, Vec& w, Vec& lambda) {
 }
 
 // The forces jrgen gets as tau: none, since the generator puts the model's <spring> and
-// <joint_force> (the test set's motor, ff(1), and spring, ff(3)) in h (INTERFACE.md 2b).
+// <joint_force> (the test set's motor, ff(1), and spring, ff(3)) in h (docs/interface.md 2b).
 Vec andrews_tau(const double*) { return Vec::Zero(7); }
 
 struct JrResult {
@@ -212,7 +212,7 @@ TEST(Andrews, InitialAccelerationIsThePublishedOne) {
   ASSERT_EQ(r.status, 0) << and_jr::last_error();
   const Vec w0 = to_jr(andrews_ref::w0);
   EXPECT_LE((r.qdd - w0).norm(), 1e-10 * w0.norm()) << r.qdd.transpose();
-  // The generalized constraint force G^T lambda is comparable across tools (INTERFACE.md 3).
+  // The generalized constraint force G^T lambda is comparable across tools (docs/interface.md 3).
   const Vec lambda0 = Eigen::Map<const Vec>(andrews_ref::lambda0, 6);
   const Vec gf = permutation() * (ts_jacobian(andrews_ref::q0).transpose() * lambda0);
   EXPECT_LE((r.constraint_force - gf).norm(), 1e-10 * gf.norm())

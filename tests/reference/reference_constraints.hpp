@@ -1,7 +1,7 @@
 // Independent reference for the loop-closure constraints of cut joints, for
 // tests only (issue 19, item 9).
 //
-// Written from the definitions of INTERFACE.md section 2, on top of the
+// Written from the definitions of docs/interface.md section 2, on top of the
 // world-frame tree kinematics of reference_dynamics.hpp (ir::Robot as read,
 // fixed joints not fused, user order); it calls none of the runtime's or the
 // generator's constraint code.  The runtime builds its rows in the world frame
@@ -58,7 +58,7 @@ FrameState frame_state(const ir::Robot& robot, const Eigen::VectorXd& q, const E
                        const ir::Pose& X_LF);
 
 /// The distance D of a distance cut: its <distance value>, or |p_WFl - p_WFk|
-/// at the zero configuration (INTERFACE.md section 2).
+/// at the zero configuration (docs/interface.md section 2).
 double cut_distance(const ir::Robot& robot, const ir::CutJoint& cut);
 
 /// The cut's unit <axis> in Fk and a right-handed orthonormal basis (u, w,
@@ -77,7 +77,7 @@ struct CutRows {
 CutRows cut_rows(const ir::Robot& robot, const ir::CutJoint& cut, double D, const Eigen::Vector3d& u,
                  const Eigen::Vector3d& w, const Eigen::VectorXd& q, const Eigen::VectorXd& v);
 
-/// How far q is from the set INTERFACE.md section 2 defines for the cut,
+/// How far q is from the set docs/interface.md section 2 defines for the cut,
 /// written from the definition alone (no rows): the largest applicable term of
 ///   |p|                 origins coincide (spherical, revolute, universal, fixed)
 ///   |axis x p|          origins move only along the axis (prismatic, cylindrical)

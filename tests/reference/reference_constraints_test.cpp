@@ -14,7 +14,7 @@
 //                               constraint_gamma), row by row;
 //   CutDefinitions.*            row-choice free: on two floating bodies, the
 //                               runtime's rows vanish on the configurations
-//                               INTERFACE.md section 2 defines for each type,
+//                               docs/interface.md section 2 defines for each type,
 //                               and the null space of Phiq is exactly the
 //                               relative motion the type allows;
 //   CutDefinitionResidual.*     the reference's row-free distance from the
@@ -374,7 +374,7 @@ INSTANTIATE_TEST_SUITE_P(Registry, GeneratedCuts, ::testing::ValuesIn(testing::g
 //
 // Two free bodies a and b (floating joints from the world) and one cut of
 // each type, from a (or from the world) to b, with random frames and axes.
-// Configurations are built directly on the set INTERFACE.md section 2 defines
+// Configurations are built directly on the set docs/interface.md section 2 defines
 // for the type (the relative placement (R, p) of Fl in Fk drawn from it), and
 // the motions the type allows are written down from the same definition:
 //   spherical    p = 0                     any rotation
@@ -464,7 +464,7 @@ void placement_on_set(const ir::CutJoint& cut, std::mt19937_64& rng, Eigen::Matr
 // Velocity coordinates (12: a's floating joint, then b's) that move body X
 // with world angular velocity omega and velocity vel of the world point o:
 // floating joints from the world with identity origins take the origin's
-// velocity in the world and omega in the child frame (INTERFACE.md section 3).
+// velocity in the world and omega in the child frame (docs/interface.md section 3).
 void body_velocity(VectorXd& v, int first, const Eigen::Matrix3d& R_WX, const Vector3d& p_WX, const Vector3d& omega,
                    const Vector3d& o, const Vector3d& vel) {
   v.segment<3>(first) += vel + omega.cross(p_WX - o);

@@ -8,7 +8,7 @@
 // Input is the ir::Robot exactly as the URDF reader produces it: links in
 // document order, joints in user order, fixed joints included, nothing fused.
 // All vectors q, v, qdd, tau, h and all dense matrices are in user order
-// (INTERFACE.md section 3): joints in robot.joints order, each contributing
+// (docs/interface.md section 3): joints in robot.joints order, each contributing
 // joint_nq / joint_nv coordinates (fixed joints none).  Joint kinematics follow
 // docs/conventions.md ("translate in the joint frame, then rotate"):
 //

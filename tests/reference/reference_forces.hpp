@@ -1,4 +1,4 @@
-// Independent reference for the force elements of INTERFACE.md section 2b
+// Independent reference for the force elements of docs/interface.md section 2b
 // (docs/forces.md), for tests only (issue 29, item 1).
 //
 // Written from the definitions in docs/forces.md on top of the world-frame

@@ -7,7 +7,7 @@
 
 namespace jrgen::report {
 
-/// The generated API (INTERFACE.md section 4) of one solver, as plain pointers.
+/// The generated API (docs/interface.md section 4) of one solver, as plain pointers.
 struct GeneratedApi {
   int nq, nv, nc, njoints;
   int (*forward_dynamics)(const double* q, const double* v, const double* tau, double* qdd, double* lambda);

@@ -1,5 +1,5 @@
 # The simulator built by add_jr_simulator() for models/fourbar.urdf (nq = nv = 3,
-# nc = 2), run as INTERFACE.md section 7 says.  cmake -DSIM=exe -DWORK=dir -P this.
+# nc = 2), run as docs/interface.md section 7 says.  cmake -DSIM=exe -DWORK=dir -P this.
 file(MAKE_DIRECTORY "${WORK}")
 set(csv "${WORK}/run.csv")
 

@@ -16,7 +16,7 @@ if(NOT JRGEN_TEST_SUBSET OR "gen_loops_fourbar_conservative" IN_LIST JRGEN_TEST_
                         sim_double_pendulum sim_stiff_damped sim_stiff_spring sim_ball_floating gen_loops_fourbar_conservative)
 endif()
 
-# The simulator executable of add_jr_simulator() (INTERFACE.md section 7):
+# The simulator executable of add_jr_simulator() (docs/interface.md section 7):
 # CSV header, rows, last stdout line, errors (check_simulator.cmake).
 add_jr_simulator(TARGET fourbar_sim URDF ${PROJECT_SOURCE_DIR}/models/fourbar.urdf NAMESPACE fourbar_sim)
 add_test(NAME simulate_cli_test

@@ -134,7 +134,7 @@ void pack_mass_matrix(const Model& model, const double* M_user, double* Mp);
 /// ancestor of (or equal to) col; -1 when structurally zero.
 std::int32_t packed_index(const Model& model, std::int32_t row_lem, std::int32_t col_lem);
 
-// ---- Force elements (INTERFACE.md section 2b) -----------------------------------
+// ---- Force elements (docs/interface.md section 2b) -----------------------------------
 //
 // Springs, joint springs and joint forces are part of h (Q = tau - h):
 //   spring (points a on body k, b on body l, d = b - a, L = |d|): the force
@@ -184,7 +184,7 @@ double potential_energy(const Model& model, const ForceModel* forces, BodyState*
 //
 // A cut joint constrains a joint frame Fk fixed on body k to a joint frame Fl
 // fixed on body l (either may be the fixed base, index -1).  Its rows, before
-// redundant ones are dropped (INTERFACE.md section 2), are built from three
+// redundant ones are dropped (docs/interface.md section 2), are built from three
 // kinds of scalar constraint, all expressed in the frame on k where a
 // direction is needed (so a redundant row stays redundant when the whole
 // mechanism moves):
@@ -199,7 +199,7 @@ double potential_energy(const Model& model, const ForceModel* forces, BodyState*
 //   universal   point x, y, z; dot(axis, child_axis)
 //   fixed       point x, y, z; dot(y_k, z_l), dot(z_k, x_l), dot(x_k, y_l)
 //   distance    distance
-//   mimic       q_l - m q_k - o   (URDF <mimic>, INTERFACE.md section 2b)
+//   mimic       q_l - m q_k - o   (URDF <mimic>, docs/interface.md section 2b)
 // where u, w complete the axis to a right-handed orthonormal basis in Fk and
 // axis_l is the same axis vector expressed in Fl.  A mimic row is not a
 // frame constraint: body l carries the mimic joint and body k its leader
@@ -406,7 +406,7 @@ inline std::int32_t pivot_spread(const double* x, std::int32_t n, bool inverse, 
   return i;
 }
 
-/// Result codes of the generated solvers (INTERFACE.md section 4).
+/// Result codes of the generated solvers (docs/interface.md section 4).
 enum Status : int {
   kSuccess = 0,
   kMassNotPositiveDefinite = 1,  ///< a pivot of M's factorization was <= 0 (or NaN)

@@ -1,5 +1,5 @@
 // Time integration of mechanisms solved by a jrgen-generated solver
-// (docs/simulation.md; INTERFACE.md sections 3 and 7).
+// (docs/simulation.md; docs/interface.md sections 3 and 7).
 //
 // Two layers:
 //
@@ -152,7 +152,7 @@ const std::vector<std::string>& method_names();
 // ---------------------------------------------------------------------------
 // Mechanism layer
 
-/// A generated solver's API (INTERFACE.md section 4) as function pointers.
+/// A generated solver's API (docs/interface.md section 4) as function pointers.
 /// JRGEN_SIM_SYSTEM(ns) fills it from namespace ns.
 struct System {
   int nq, nv, nc, njoints;
@@ -167,7 +167,7 @@ struct System {
   void (*constraints)(const double* q, double* phi);
   void (*constraint_jacobian)(const double* q, double* Phiq);
   void (*constraint_gamma)(const double* q, const double* v, double* gamma);
-  /// Gravity + spring potential (INTERFACE.md section 2b); nullptr: the
+  /// Gravity + spring potential (docs/interface.md section 2b); nullptr: the
   /// energy is NaN.
   double (*potential_energy)(const double* q);
   const char* (*last_error)();

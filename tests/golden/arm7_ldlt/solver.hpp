@@ -3,7 +3,7 @@
 // Equations of motion of 'arm7' in joint coordinates, eq. (17) of
 // Negrut, Serban & Potra (1997):
 //   M qdd + Phiq^T lambda = tau - h,   Phiq qdd = gamma.
-// All vectors and matrices are in user order (INTERFACE.md section 3);
+// All vectors and matrices are in user order (docs/interface.md section 3);
 // matrices are dense and column-major.
 #pragma once
 
@@ -47,9 +47,9 @@ void constraints(const double* q, double* phi);                 // nc
 void constraint_jacobian(const double* q, double* Phiq);        // nc x nv
 void constraint_gamma(const double* q, const double* v, double* gamma);  // nc
 
-// Extra (beyond INTERFACE.md section 4): the potential energy V(q) of
+// Extra (beyond docs/interface.md section 4): the potential energy V(q) of
 // gravity (-sum over bodies of m g . c, c the world centre of mass), springs
-// (1/2 k (L - L0)^2) and joint springs (1/2 k (q - rest)^2), INTERFACE.md
+// (1/2 k (L - L0)^2) and joint springs (1/2 k (q - rest)^2), docs/interface.md
 // section 2b.  A <joint_force> does work that V leaves out: at v = 0,
 // bias_forces = dV/dq - the joint forces.
 double potential_energy(const double* q);

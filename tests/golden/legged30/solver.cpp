@@ -14179,7 +14179,7 @@ JRGEN_DISPATCH int forward_dynamics(const double* q, const double* v, const doub
   // base's position enters neither M nor h); v enters only the velocity
   // products, which a model may not have (a single pendulum's h does not
   // read its v): both are tested first (an integer test per pair of
-  // entries; INTERFACE.md section 6: a NaN in v is status 3).  tau enters Q
+  // entries; docs/interface.md section 6: a NaN in v is status 3).  tau enters Q
   // linearly and always reaches qdd (M^-1 has a positive diagonal), so it is
   // scanned, to name the coordinate, only after a failed solve.
   if (jr::any_non_finite(q, nq) || jr::any_non_finite(v, nv)) return non_finite_input(q, v, tau);
