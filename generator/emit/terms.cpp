@@ -258,26 +258,94 @@ std::string check_refined(const topology::Tree& t, const Options& options) {
       has_damping(t) ? "true" : "false");
 }
 
-const char* const kCheckClosed =
-    "// Status of jr::articulated_closed (k: -1, a dof of M, or nv + a row of W), then\n"
-    "// the digits tests of M's and W's pivots as after Steps 1 and 3.4; lambda copied.\n"
-    "int check_closed(std::int32_t k, const double* qdd, double* lambda) {\n"
-    "  if (k >= nv) return constraints_singular(k - nv, g_Winv[k - nv]);\n"
-    "  if (const int status = check_articulated(g_Dinv, qdd)) return status;\n"
-    "  double ratio = 0.0;\n"
-    "  const std::int32_t j = jr::pivot_spread(g_Winv, nc, false, 1, kSpreadLimit, &ratio);\n"
-    "  if (j >= 0)\n"
-    "    return fail_row(kConstraintsSingular,\n"
-    "                    \"constraint rows singular to working precision (smallest pivot of T^T T below 1e-13 \"\n"
-    "                    \"of the largest)\",\n"
-    "                    j, ratio);\n"
-    "  if (jr::any_non_finite(g_zm, nc))\n"
-    "    for (std::int32_t r = 0; r < nc; ++r)\n"
-    "      if (!std::isfinite(g_zm[r])) return fail_row(kNonFinite, \"non-finite multiplier\", r, g_zm[r]);\n"
-    "  if (lambda != nullptr)\n"
-    "    for (std::int32_t r = 0; r < nc; ++r) lambda[r] = g_zm[r];\n"
-    "  return kSuccess;\n"
-    "}\n";
+// The runtime's articulated route for closed loops (issue 29, item 3): after
+// the tests of M's and W's pivots, M's local pivot ratios (as check_refined),
+// its pivots against kMassDiagonalScreen and W's pivots over their diagonal
+// entries screen for cancellation; a screened state has the error of qdd
+// estimated from the residual of the augmented system
+// (jr::articulated_closed_error_estimate).  Code 1 names the joint of M's
+// screen, code 2 the row of W's, whichever is further below its trigger.
+std::string check_closed(const topology::Tree& t, const Options& options) {
+  std::vector<double> bounds = topology::mass_diagonal_bounds(t);
+  for (double& b : bounds)
+    if (std::isinf(b)) b = 0.0;
+  return fmt::format(
+      "// Status of jr::articulated_closed (k: -1, a dof of M, or nv + a row of W), then\n"
+      "// the digits tests of M's and W's pivots as after Steps 1 and 3.4; lambda copied.\n"
+      "// Status 0 means 6 digits on this route too (docs/status.md): a local pivot\n"
+      "// ratio of M below kLocalRatioTrigger, a pivot of M below kBoundTrigger times\n"
+      "// the generation-time bound of M_jj, or a pivot of W below kWRatioTrigger times\n"
+      "// W_rr screens the state; there the error of qdd is estimated from the residual\n"
+      "// of the augmented system (jr::articulated_closed_error_estimate: Newton-Euler\n"
+      "// and the rows, solved with the same factorizations), and above kEstimateLimit\n"
+      "// the screen furthest below its trigger is reported (code 1 naming the joint,\n"
+      "// or 2 naming the loop joint and row).\n"
+      "constexpr double kLocalRatioTrigger = 1e-4;\n"
+      "// 1e-10, not the trees' 1e-14: the loops' forces reach a nearly singular M\n"
+      "// through the rounding of Phiq (a gimbal inside a loop loses 6 digits at\n"
+      "// 3e-13 of the bound, where its tree would keep them).\n"
+      "constexpr double kBoundTrigger = 1e-10;\n"
+      "constexpr double kWRatioTrigger = 1e-4;\n"
+
+      "constexpr double kMassDiagonalScreen[{}] = {{ {} }};\n"
+      "constexpr double kEstimateLimit = 1e-7;\n"
+      "thread_local double g_refine[2 * (nv + nc)];\n"
+      "int check_closed(std::int32_t k, const double* v, const double* tau, const jr::LocalPivotRatio& m_ratio,\n"
+      "                 const double* qdd, double* lambda) {{\n"
+      "  if (k >= nv) return constraints_singular(k - nv, g_Winv[k - nv]);\n"
+      "  if (const int status = check_articulated(g_Dinv, qdd)) return status;\n"
+      "  double ratio = 0.0;\n"
+      "  const std::int32_t j = jr::pivot_spread(g_Winv, nc, false, 1, kSpreadLimit, &ratio);\n"
+      "  if (j >= 0)\n"
+      "    return fail_row(kConstraintsSingular,\n"
+      "                    \"constraint rows singular to working precision (smallest pivot of T^T T below 1e-13 \"\n"
+      "                    \"of the largest)\",\n"
+      "                    j, ratio);\n"
+      "  if (jr::any_non_finite(g_zm, nc))\n"
+      "    for (std::int32_t r = 0; r < nc; ++r)\n"
+      "      if (!std::isfinite(g_zm[r])) return fail_row(kNonFinite, \"non-finite multiplier\", r, g_zm[r]);\n"
+      "  // The screen: how far below its trigger each test is (1: not screened).\n"
+      "  std::int32_t dof = -1, row = -1;\n"
+      "  double m_below = 1.0, w_below = 1.0;\n"
+      "  if (m_ratio.min < kLocalRatioTrigger) {{\n"
+      "    m_below = m_ratio.min / kLocalRatioTrigger;\n"
+      "    dof = m_ratio.dof;\n"
+      "  }}\n"
+      "  for (std::int32_t i = 0; i < nv; ++i)\n"
+      "    if (g_Dinv[i] < m_below * kBoundTrigger * kMassDiagonalScreen[i]) {{\n"
+      "      m_below = g_Dinv[i] / (kBoundTrigger * kMassDiagonalScreen[i]);\n"
+      "      dof = i;\n"
+      "    }}\n"
+
+      "  const double* W = g_closed_scratch + static_cast<std::int64_t>(nc) * nv;  // diagonal kept\n"
+      "  for (std::int32_t r = 0; r < nc; ++r)\n"
+      "    if (g_Winv[r] < w_below * kWRatioTrigger * W[r + nc * r]) {{\n"
+      "      w_below = g_Winv[r] / (kWRatioTrigger * W[r + nc * r]);\n"
+      "      row = r;\n"
+      "    }}\n"
+      "  if (dof >= 0 || row >= 0) {{\n"
+      "    const double estimate = jr::articulated_closed_error_estimate(\n"
+      "        kModel, kConstraints, g_bodies, g_articulated, g_T, g_gamma, v, tau, g_z, g_zm, g_Winv,\n"
+      "        g_closed_scratch, g_refine, {}, {}, kMassDiagonalScreen);\n"
+      "    if (estimate > kEstimateLimit) {{\n"
+      "      if (row >= 0 && !(m_below < w_below))\n"
+      "        return fail_row(kConstraintsSingular,\n"
+      "                        \"constraint rows nearly singular: qdd may have fewer than 6 correct digits \"\n"
+      "                        \"(estimated relative error above 1e-7)\",\n"
+      "                        row, estimate);\n"
+      "      return fail(kMassNotPositiveDefinite,\n"
+      "                  \"mass matrix nearly singular: qdd may have fewer than 6 correct digits (estimated \"\n"
+      "                  \"relative error above 1e-7)\",\n"
+      "                  kDofUser[dof], estimate);\n"
+      "    }}\n"
+      "  }}\n"
+      "  if (lambda != nullptr)\n"
+      "    for (std::int32_t r = 0; r < nc; ++r) lambda[r] = g_zm[r];\n"
+      "  return kSuccess;\n"
+      "}}\n",
+      t.nv, fmt::join(bounds, ", "), options.gravity.isZero(0.0) ? "false" : "true",
+      has_damping(t) ? "true" : "false");
+}
 
 TermsBlock articulated_block(const Built& b, const topology::Tree& t) {
   TermsBlock block;
@@ -499,7 +567,12 @@ TermsBlock loop_terms(const topology::Tree& t, const Options& options, long long
   const long long nc = t.nc();
   const long long closed = kRuntimeArticulatedPerDof * t.nv * (1 + nc / 2) + nc * nc * nc;
   const long long crb = kRuntimeCompositePerEntry * t.nnz() + solve_flops;
-  if (!fits(b, limit) && !options.singular_proximal && closed < crb) {
+  // JRGEN_TERMS_ROUTE=articulated (internal, tests) takes the runtime's
+  // articulated route for loops whatever the count, when the specialized
+  // program does not fit (JRGEN_TERMS_LIMIT=0).
+  const char* route = std::getenv("JRGEN_TERMS_ROUTE");
+  const bool forced = route != nullptr && std::string(route) == "articulated";
+  if (!fits(b, limit) && !options.singular_proximal && (closed < crb || forced)) {
     block.route = TermsRoute::kRuntimeArticulated;
     block.include = "#include <jrgen/articulated.hpp>\n";
     block.definitions = fmt::format(
@@ -509,19 +582,22 @@ TermsBlock loop_terms(const topology::Tree& t, const Options& options, long long
         "// qdd = a0 - Y lambda: O(n nc), no M formed.\n"
         "thread_local jr::ArticulatedState g_articulated[{}];\n"
         "thread_local double g_closed_scratch[{}];\n{}\n{}\n{}",
-        t.bodies.size(), nc * (t.nv + nc), runtime_tau_workspace(t), check_articulated(t, false), kCheckClosed);
+        t.bodies.size(), nc * (t.nv + nc), runtime_tau_workspace(t), check_articulated(t, false),
+        check_closed(t, options));
     std::string tau;
     const std::string forces = runtime_forces_tau(t, tau);
     block.fd_body = fmt::format(
         "  jr::kinematics(kModel, g_bodies, q);\n{}"
         "  // Phiq (packed, Lemma 3 pattern) and gamma = -(Phiq v)_q v.\n"
         "  jr::constraint_terms(kModel, kConstraints, g_bodies, g_motion, q, v, nullptr, g_T, g_gamma);\n"
+        "  // M's smallest local pivot ratio in ratio (check_closed's screen).\n"
+        "  jr::LocalPivotRatio ratio;\n"
         "  const std::int32_t k = jr::articulated_closed{}(kModel, kConstraints, g_bodies, g_articulated, g_T,\n"
         "                                                g_gamma, v, {}, g_z, g_zm, g_Dinv, g_Winv,\n"
-        "                                                g_closed_scratch);\n"
+        "                                                g_closed_scratch, &ratio);\n"
         "  scatter_qdd(g_z, qdd);\n"
-        "  const int status = check_closed(k, qdd, lambda);\n",
-        forces, runtime_flags(t, options), tau);
+        "  const int status = check_closed(k, v, {}, ratio, qdd, lambda);\n",
+        forces, runtime_flags(t, options), tau, tau);
     block.summary = fmt::format(
         "forward_dynamics: the runtime's kinematics, Phiq and gamma, then its articulated-body route with the "
         "columns of M^-1 Phiq^T, O(n nc) (about {} operations; M and Steps 1-4 about {}; the specialized "

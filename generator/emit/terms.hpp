@@ -47,8 +47,9 @@ struct TermsBlock {
 /// time grows about linearly, near 1 ms per statement at -O3, and code far
 /// beyond the instruction caches loses what folding saved).
 /// JRGEN_TERMS_LIMIT overrides (0: always the runtime's terms), and
-/// JRGEN_TERMS_ROUTE=articulated|composite forces a tree's specialized route:
-/// both internal, for tests and measurements.
+/// JRGEN_TERMS_ROUTE=articulated|composite forces a tree's specialized route
+/// (with JRGEN_TERMS_LIMIT=0: the runtime's articulated route, for trees and
+/// for closed loops): both internal, for tests and measurements.
 inline constexpr long long kMaxTermStatements = 40000;
 long long terms_limit();
 

@@ -434,10 +434,10 @@ template <bool kGravity, bool kDamping>
 std::int32_t articulated_closed(const Model& model, const ConstraintModel& cm, BodyState* bodies,
                                 ArticulatedState* work, const double* Phiq_packed, const double* gamma,
                                 const double* v, const double* tau, double* qdd_lem, double* lambda,
-                                double* pivots_lem, double* W_pivots, double* scratch) {
+                                double* pivots_lem, double* W_pivots, double* scratch, LocalPivotRatio* ratio) {
   // a0 = M^-1 (tau - h), in qdd_lem.
   const std::int32_t status =
-      articulated_dynamics<kGravity, kDamping>(model, bodies, work, v, tau, qdd_lem, pivots_lem);
+      articulated_dynamics<kGravity, kDamping>(model, bodies, work, v, tau, qdd_lem, pivots_lem, ratio);
   if (status >= 0) return status;
   const std::int32_t nv = model.nv, nc = cm.nc;
   double* Y = scratch;
@@ -475,7 +475,8 @@ std::int32_t articulated_closed(const Model& model, const ConstraintModel& cm, B
 #define JR_ARTICULATED_CLOSED(G, D)                                                                              \
   template std::int32_t articulated_closed<G, D>(const Model&, const ConstraintModel&, BodyState*,              \
                                                  ArticulatedState*, const double*, const double*, const double*, \
-                                                 const double*, double*, double*, double*, double*, double*);
+                                                 const double*, double*, double*, double*, double*, double*, \
+                                                 LocalPivotRatio*);
 JR_ARTICULATED_CLOSED(false, false)
 JR_ARTICULATED_CLOSED(false, true)
 JR_ARTICULATED_CLOSED(true, false)
@@ -485,16 +486,106 @@ JR_ARTICULATED_CLOSED(true, true)
 std::int32_t articulated_closed(const Model& model, const ConstraintModel& cm, BodyState* bodies,
                                 ArticulatedState* work, const double* Phiq_packed, const double* gamma,
                                 const double* v, const double* tau, double* qdd_lem, double* lambda,
-                                double* pivots_lem, double* W_pivots, double* scratch, bool gravity, bool damping) {
+                                double* pivots_lem, double* W_pivots, double* scratch, bool gravity, bool damping,
+                                LocalPivotRatio* ratio) {
   auto call = [&](auto g, auto d) {
     return articulated_closed<decltype(g)::value, decltype(d)::value>(model, cm, bodies, work, Phiq_packed, gamma,
                                                                        v, tau, qdd_lem, lambda, pivots_lem,
-                                                                       W_pivots, scratch);
+                                                                       W_pivots, scratch, ratio);
   };
   using T = std::true_type;
   using F = std::false_type;
   if (gravity) return damping ? call(T(), T()) : call(T(), F());
   return damping ? call(F(), T()) : call(F(), F());
+}
+
+namespace {
+
+// [x; mu] = K^-1 [x; mu] in place (x: nv, Lemma 2 order; mu: nc, Phi order),
+// K = [[M, Phiq^T], [Phiq, 0]], with the factorizations articulated_closed()
+// left: x <- M^-1 x, mu <- W^-1 (Phiq x - mu), x <- x - Y mu.
+void closed_solve(const Model& model, const ConstraintModel& cm, const BodyState* bodies, ArticulatedState* work,
+                  const double* Phiq_packed, const double* W_pivots, const double* scratch, double* x,
+                  double* mu) {
+  const std::int32_t nv = model.nv, nc = cm.nc;
+  articulated_solve(model, bodies, work, x);
+  for_each_kept_row(cm, Phiq_packed, [&](const CutModel& cut, std::int32_t r, const double* row) {
+    double b = 0.0;
+    for_each_row_entry(model, cut, [&](std::int32_t index, std::int32_t dof) { b += row[index] * x[dof]; });
+    mu[r] = b - mu[r];
+  });
+  solve_w(scratch + static_cast<std::int64_t>(nc) * nv, nc, W_pivots, mu);
+  for (std::int32_t s = 0; s < nc; ++s) {
+    const double* y = scratch + static_cast<std::int64_t>(s) * nv;
+    for (std::int32_t j = 0; j < nv; ++j) x[j] -= y[j] * mu[s];
+  }
+}
+
+}  // namespace
+
+double articulated_closed_error_estimate(const Model& model, const ConstraintModel& cm, BodyState* bodies,
+                                         ArticulatedState* work, const double* Phiq_packed, const double* gamma,
+                                         const double* v, const double* tau, const double* qdd_lem,
+                                         const double* lambda, const double* W_pivots, const double* scratch,
+                                         double* estimate_scratch, bool gravity, bool damping,
+                                         const double* diagonal_bounds) {
+  const std::int32_t nv = model.nv, nc = cm.nc, n = nv + nc;
+  double* r = estimate_scratch;      // residual, then w
+  double* d = estimate_scratch + n;  // the solves
+  // r_1 = tau - (M qdd + h) - Phiq^T lambda, r_2 = gamma - Phiq qdd.
+  inverse_dynamics(model, bodies, v, qdd_lem, r, gravity, damping);
+  for (std::int32_t j = 0; j < nv; ++j) r[j] = tau[model.dof_user[j]] - r[j];
+  for_each_kept_row(cm, Phiq_packed, [&](const CutModel& cut, std::int32_t k, const double* row) {
+    double b = 0.0;
+    for_each_row_entry(model, cut, [&](std::int32_t index, std::int32_t dof) {
+      r[dof] -= row[index] * lambda[k];
+      b += row[index] * qdd_lem[dof];
+    });
+    r[nv + k] = gamma[k] - b;
+  });
+  for (std::int32_t i = 0; i < n; ++i) d[i] = r[i];
+  closed_solve(model, cm, bodies, work, Phiq_packed, W_pivots, scratch, d, d + nv);
+  double d1 = 0.0, x = 0.0;
+  for (std::int32_t j = 0; j < nv; ++j) {
+    d1 = std::max(d1, std::abs(d[j]));
+    x = std::max(x, std::abs(qdd_lem[j]));
+  }
+  // w: |r| plus each entry's rounding floor (as articulated_error_estimate,
+  // and the rows' products with lambda and qdd).
+  constexpr double kEps = 0x1p-52;
+  double moment = 0.0;
+  if (diagonal_bounds != nullptr)
+    for (std::int32_t j = 0; j < nv; ++j) moment += std::sqrt(diagonal_bounds[j]) * std::abs(qdd_lem[j]);
+  for (std::int32_t i = 0; i < model.nb; ++i) {
+    const BodyModel& bm = model.bodies[i];
+    const BodyState& b = bodies[i];
+    const double nf = b.f.head<3>().norm(), ff = b.f.tail<3>().norm();
+    for (int k = 0; k < bm.nv; ++k) {
+      const std::int32_t j = bm.v_lem + k;
+      const double bound = diagonal_bounds != nullptr ? kEps * std::sqrt(diagonal_bounds[j]) * moment : 0.0;
+      r[j] = std::abs(r[j]) + kEps * (b.S.col(k).head<3>().norm() * nf + b.S.col(k).tail<3>().norm() * ff) + bound;
+    }
+  }
+  for_each_kept_row(cm, Phiq_packed, [&](const CutModel& cut, std::int32_t k, const double* row) {
+    double b = std::abs(gamma[k]);
+    for_each_row_entry(model, cut, [&](std::int32_t index, std::int32_t dof) {
+      const double e = std::abs(row[index]);
+      r[dof] += kEps * e * std::abs(lambda[k]);
+      b += e * std::abs(qdd_lem[dof]);
+    });
+    r[nv + k] = std::abs(r[nv + k]) + kEps * b;
+  });
+  // Hager's step: z = K^-1 w, d2 = K^-1 (sign(z) w).
+  for (std::int32_t i = 0; i < n; ++i) d[i] = r[i];
+  closed_solve(model, cm, bodies, work, Phiq_packed, W_pivots, scratch, d, d + nv);
+  double e = d1;
+  for (std::int32_t i = 0; i < n; ++i) {
+    if (i < nv) e = std::max(e, std::abs(d[i]));
+    d[i] = std::copysign(r[i], d[i]);
+  }
+  closed_solve(model, cm, bodies, work, Phiq_packed, W_pivots, scratch, d, d + nv);
+  for (std::int32_t j = 0; j < nv; ++j) e = std::max(e, std::abs(d[j]));
+  return x > 0.0 ? e / x : e;
 }
 
 }  // namespace jr

@@ -392,11 +392,25 @@ ModelCase gimbal_chain(int n) {
   return {"chain_gimbal_" + std::to_string(n), urdf};
 }
 
+// The gimbal chain of n joints with its tip tied to a point of the world by a
+// distance cut (one row): closed loops whose M goes singular with gimbal_b =
+// 0 (the runtime's articulated route for loops, tests/generated/runtime_digits_test.cpp).
+ModelCase gimbal_chain_loop(int n) {
+  ModelCase c = gimbal_chain(n);
+  c.name = "loops_gimbal_chain_" + std::to_string(n);
+  c.cuts = fmt::format(
+      "<loop_joints>\n  <loop_joint name=\"tip_tether\" type=\"distance\">\n"
+      "    <parent link=\"link_{}\"/>\n    <child link=\"world\"/>\n    <origin xyz=\"0 0 0\"/>\n"
+      "    <child_origin xyz=\"0.3 0.2 0.1\"/>\n  </loop_joint>\n</loop_joints>\n",
+      n);
+  return c;
+}
+
 }  // namespace
 
 std::vector<ModelCase> long_chains() {
   return {{"chain_1000", chain_urdf(1000, 2026)}, {"chain_10000", chain_urdf(10000, 2026)}, hanging_rope_loop(300),
-          gimbal_chain(300)};
+          gimbal_chain(300), gimbal_chain_loop(40)};
 }
 
 namespace {

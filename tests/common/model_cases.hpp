@@ -39,7 +39,9 @@ std::vector<ModelCase> all_models();
 /// (loops_rope_300); in no list above, since a dense reference on the chains
 /// is O(n^3) and the rope's only assembled state here is its singular one;
 /// and a 300-joint chain with a gimbal in the middle, singular where its
-/// middle joint is 0 (chain_gimbal_300).
+/// middle joint is 0 (chain_gimbal_300), and a 40-joint one whose tip is tied
+/// to the world by a distance cut (loops_gimbal_chain_40: loops with M singular
+/// there).
 std::vector<ModelCase> long_chains();
 
 /// ../shared/models-external/icub.urdf as written (fixed base; as new users

@@ -158,18 +158,47 @@ void inverse_dynamics(const Model& model, BodyState* bodies, const double* v, co
 /// pivot is in W_pivots[r], qdd_lem holds a0 and lambda is not the solution.
 /// On success the digits test of Step 3.4 applies to W's pivots as to those
 /// of T^T T: jr::pivot_spread(W_pivots, nc, false, 1, ...); and to M's as in
-/// articulated_dynamics().  nc = 0 is articulated_dynamics().
+/// articulated_dynamics().  nc = 0 is articulated_dynamics().  ratio: when
+/// not null, M's smallest local pivot ratio, as articulated_dynamics().
 template <bool kGravity, bool kDamping>
 std::int32_t articulated_closed(const Model& model, const ConstraintModel& cm, BodyState* bodies,
                                 ArticulatedState* work, const double* Phiq_packed, const double* gamma,
                                 const double* v, const double* tau, double* qdd_lem, double* lambda,
-                                double* pivots_lem, double* W_pivots, double* scratch);
+                                double* pivots_lem, double* W_pivots, double* scratch,
+                                LocalPivotRatio* ratio = nullptr);
 
 /// Runtime switch over the four instantiations.
 std::int32_t articulated_closed(const Model& model, const ConstraintModel& cm, BodyState* bodies,
                                 ArticulatedState* work, const double* Phiq_packed, const double* gamma,
                                 const double* v, const double* tau, double* qdd_lem, double* lambda,
-                                double* pivots_lem, double* W_pivots, double* scratch, bool gravity, bool damping);
+                                double* pivots_lem, double* W_pivots, double* scratch, bool gravity, bool damping,
+                                LocalPivotRatio* ratio = nullptr);
+
+/// Estimated relative error max_j |qdd_j - qdd*_j| / max_j |qdd*_j| of qdd
+/// from a successful articulated_closed() at the same state (issue 29, item
+/// 3), (qdd*, lambda*) the exact solution of the augmented system
+///   K [qdd; lambda] = [tau - h; gamma],  K = [[M, Phiq^T], [Phiq, 0]].
+/// As articulated_error_estimate(), for K: the residual r = (tau -
+/// ID(q, v, qdd) - Phiq^T lambda, gamma - Phiq qdd) (Newton-Euler and the
+/// packed rows), d1 = K^-1 r with the same factorizations (M's articulated
+/// solve, Y and W's L D L^T left in scratch: a0 = M^-1 r_1, mu = W^-1 (Phiq
+/// a0 - r_2), d = a0 - Y mu); then w = |r| plus each entry's rounding floor
+/// (eps |S_j^T| |f_j| + eps (|Phiq|^T |lambda|)_j for the dofs, with
+/// diagonal_bounds also eps sqrt(B_j) sum_k sqrt(B_k) |qdd_k|; eps (|gamma_r|
+/// + (|Phiq| |qdd|)_r) for the rows) and one step of Hager's estimator, z =
+/// K^-1 w, d2 = K^-1 (sign(z) w).  Returns max over the dofs of |d1|, |z|,
+/// |d2| over max |qdd|: one Newton-Euler pass and three solves, each an
+/// articulated solve plus O(nnz(Phiq) + nc nv + nc^2).
+///
+/// Arguments as given to and left by articulated_closed() (scratch: Y and the
+/// factor of W; lambda, W_pivots its outputs; bodies' v, a, f and work's pA,
+/// u, a are overwritten).  estimate_scratch: 2 (nv + nc) doubles.
+double articulated_closed_error_estimate(const Model& model, const ConstraintModel& cm, BodyState* bodies,
+                                         ArticulatedState* work, const double* Phiq_packed, const double* gamma,
+                                         const double* v, const double* tau, const double* qdd_lem,
+                                         const double* lambda, const double* W_pivots, const double* scratch,
+                                         double* estimate_scratch, bool gravity, bool damping,
+                                         const double* diagonal_bounds = nullptr);
 
 /// Doubles of scratch that articulated_closed() needs: nc * (nv + nc).
 inline std::int64_t closed_scratch_size(std::int32_t nv, std::int32_t nc) {
