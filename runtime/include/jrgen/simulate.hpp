@@ -220,6 +220,8 @@ struct MechanismSettings {
   /// damped correction.
   /// Stats::near_singular counts the damped answers, Stats::singular_checks the dense
   /// eigendecompositions.  0: off (the generated solver's answers, its status 2 a Failure).
+  /// Not used with Stabilization::kBaumgarte; with kNone no projection runs, so only a
+  /// status 2 or a regularized answer fires the screen.
   double singular_damping = 1e-10;
 };
 
