@@ -292,24 +292,26 @@ bool jacobian(Run& r, double t, const Vec& y, const Vec& f0, Eigen::MatrixXd& J)
 // The convergence test shared by the simplified Newton iterations of sdirk4
 // and radau5 (HW II, (8.10)-(8.12)): with the contraction theta of the last
 // two increments, converged when the estimated remaining error
-// theta / (1 - theta) |dZ| is below kKappa tolerances (or |dZ| is already
-// below 1e-3 kKappa); diverged when theta >= 0.99 or the error predicted
-// after the remaining iterations is above kKappa.
+// theta / (1 - theta) |dZ| is below kappa tolerances (or |dZ| is already
+// below 1e-3 kappa); diverged when theta >= 0.99 or the error predicted
+// after the remaining iterations is above kappa.  radau5: kappa = kKappa
+// (HW II's 0.05); sdirk4: per stage, sdirk4_kappa below.
 struct NewtonTest {
   static constexpr int kMaxIt = 7;
   static constexpr double kKappa = 0.05;
   enum Verdict { kContinue, kConverged, kDiverged };
   double prev = 0.0;
   double& theta_max;
+  double kappa = kKappa;
 
   Verdict judge(int it, double nrm) {
-    if (nrm <= 1e-3 * kKappa) return kConverged;  // the prediction was already exact
+    if (nrm <= 1e-3 * kappa) return kConverged;  // the prediction was already exact
     if (it > 0) {
       const double theta = nrm / prev;
       theta_max = std::max(theta_max, theta);
       if (theta >= 0.99) return kDiverged;
-      if (std::pow(theta, kMaxIt - 1 - it) / (1 - theta) * nrm > kKappa) return kDiverged;
-      if (theta / (1 - theta) * nrm <= kKappa) return kConverged;
+      if (std::pow(theta, kMaxIt - 1 - it) / (1 - theta) * nrm > kappa) return kDiverged;
+      if (theta / (1 - theta) * nrm <= kappa) return kConverged;
     }
     prev = nrm;
     return kContinue;
@@ -332,10 +334,24 @@ bool newton_f(Run& r, double t, const Vec& yz, Vec& fz, bool& regularized) {
 // (kRhsRegularized) is taken in the iterations (the first starts at y, which
 // may be on a singular configuration) but not in the last one, whose f
 // determines the converged stage: that rejects the step (newton_f).
-bool newton_stage(Run& r, Newton& nw, double t, double h, const Vec& y, const Vec& known, Vec& Z, double& theta_max) {
+//
+// The stopping tolerance of stage i (sdirk4_kappa): stage i's Newton error e_i enters
+// y1 = Y_5 through the later stages as (a_5i / gamma) e_i, and is not in the error estimate
+// (which sees only the converged k_i), so it must stay below the tolerance by itself:
+// kappa_i = min(0.05, sqrt(rtol)) / max(1, |a_5i| / gamma) tolerances, not below the
+// rounding floor eps / rtol.  With HW II's fixed 0.05 the errors at tight tolerances were not
+// proportional to the tolerance (A02, docs/simulation.md "A02 in time").
+double sdirk4_kappa(int i, double rtol) {
+  const double k = std::min(NewtonTest::kKappa, std::sqrt(rtol)) /
+                   std::max(1.0, std::abs(Sdirk4::A[Sdirk4::s - 1][i]) / Sdirk4::g);
+  return std::max(k, std::numeric_limits<double>::epsilon() / rtol);
+}
+
+bool newton_stage(Run& r, Newton& nw, double t, double h, const Vec& y, const Vec& known, Vec& Z, double& theta_max,
+                  double kappa) {
   const Eigen::Index n = y.size();
   Vec fz(n), res(n), dZ(n), yz(n);
-  NewtonTest test{0.0, theta_max};
+  NewtonTest test{0.0, theta_max, kappa};
   for (int it = 0; it < NewtonTest::kMaxIt; ++it) {
     yz = y + Z;
     bool regularized = false;
@@ -380,7 +396,7 @@ void sdirk4(Run& r, Vec& y) {
       known.setZero();
       for (int j = 0; j < i; ++j) known += h * Sdirk4::A[i][j] * k[j];
       Z = i == 0 ? Vec(Vec::Zero(n)) : Vec(Zprev * (Sdirk4::c[i] / Sdirk4::c[i - 1]));
-      ok = newton_stage(r, nw, t + Sdirk4::c[i] * h, h, y, known, Z, theta_max);
+      ok = newton_stage(r, nw, t + Sdirk4::c[i] * h, h, y, known, Z, theta_max, sdirk4_kappa(i, r.s.rtol));
       if (ok) k[i] = (Z - known) / (h * Sdirk4::g);  // f(Y_i) consistent with the stage equation
       Zprev = Z;
     }
@@ -678,6 +694,12 @@ namespace {
 // Buffers of one Mechanism evaluation (a Mechanism is used by one thread at a time).
 struct Work {
   std::vector<double> M, Phiq, phi, gamma, h, tau, qdd, lambda, zero_nv, dv;
+  // MechanismSettings::singular_damping's counters of the current Mechanism::run.
+  long near_singular = 0, singular_checks = 0;
+  std::string near_singular_note;
+  // The Mechanism whose last dense check found W within kNearExit tau of a rank loss: its
+  // calls run the dense check until one finds W farther (the screen's hysteresis).
+  const void* near_mode = nullptr;
 };
 thread_local Work g_work;
 
@@ -821,12 +843,23 @@ int Mechanism::rhs(double t, const double* y, double* dydt, std::string& error) 
     }
     status = sys_.solve_augmented(w.M.data(), w.h.data(), w.Phiq.data(), w.gamma.data(), dydt + sys_.nq,
                                   w.lambda.data());
-  } else if (set_.singular_damping > 0.0 && sys_.nc > 0 && damped_solve(q, v, nullptr, false, dydt + sys_.nq)) {
-    return 0;  // (no generated solve ran: its last_solve_regularized() is not this one's)
   } else {
     status = sys_.forward_dynamics(q, v, w.tau.data(), dydt + sys_.nq, w.lambda.data());
+    // MechanismSettings::singular_damping: the screen (free: the solve's status and flag,
+    // and whether the last dense check found W within kNearExit tau of a rank loss), then
+    // the dense check, which damps only near a rank loss (else the answer stands).
+    if (set_.singular_damping > 0.0 && sys_.nc > 0 && (status == 0 || status == 2)) {
+      const bool screen = status == 2 || (sys_.last_solve_regularized && sys_.last_solve_regularized()) ||
+                          w.near_mode == this;
+      if (screen) {
+        ++w.singular_checks;
+        if (damped_solve(q, v, nullptr, false, dydt + sys_.nq)) {
+          note_damped(t, q);
+          return 0;
+        }
+      }
+    }
   }
-  (void)t;
   // A regularized answer (--singular proximal): status 0 at a state singular to working
   // precision, or status 2 with the answer written near, not at, it (without its digits,
   // docs/singular.md).  Either is kRhsRegularized: a stage with one rejects the step.
@@ -883,7 +916,8 @@ bool Mechanism::regularized_answer(int status) const {
 // M-orthogonal to null(Phiq), so the acceleration along the admissible motion is unchanged.
 // With r: the projection's correction dv = -M^-1 Phiq^T W_damped^+ r.  Without: the
 // acceleration M^-1 (tau - h) - M^-1 Phiq^T W_damped^+ (Phiq M^-1 (tau - h) - gamma),
-// computed only when W's smallest eigenvalue is below 1e3 tau s_max (`always` false).
+// Returns whether W's smallest eigenvalue is below 1e3 tau s_max (near a rank loss); dv is
+// written then, or always with `always`.
 bool Mechanism::damped_solve(const double* q, const double* v, const double* r, bool always, double* dv) const {
   const int nv = sys_.nv, nc = sys_.nc;
   Work& w = work(sys_);
@@ -895,7 +929,9 @@ bool Mechanism::damped_solve(const double* q, const double* v, const double* r, 
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(Phiq * Y);
   const Eigen::VectorXd& s = es.eigenvalues();
   const double tau = set_.singular_damping * s[nc - 1];
-  if (!always && !(s[0] < 1e3 * tau)) return false;
+  const bool near = s[0] < 1e3 * tau;
+  w.near_mode = s[0] < kNearExit * tau ? this : nullptr;  // the screen's hysteresis
+  if (!always && !near) return false;
   Eigen::VectorXd z(nc), a0 = Eigen::VectorXd::Zero(nv);
   if (r) {
     z = Eigen::Map<const Eigen::VectorXd>(r, nc);
@@ -910,7 +946,60 @@ bool Mechanism::damped_solve(const double* q, const double* v, const double* r, 
   for (int i = 0; i < nc; ++i) uz[i] *= s[i] / (s[i] * s[i] + tau * tau);
   const Eigen::VectorXd x = a0 - Y * (es.eigenvectors() * uz);
   for (int i = 0; i < nv; ++i) dv[i] = x[i];
-  return true;
+  return near;
+}
+
+// The projection's free estimate of W's smallest eigenvalue: its solve gave lambda = W^-1 r
+// (r = Phi or Phiq v, a rounding-size residual with components along every eigenvector),
+// one step of inverse iteration, so r^T lambda / lambda^T lambda >= s_min, close to it
+// when s_min is far below the others.  W's largest eigenvalue is at least W_ii >=
+// Phiq_ij^2 / M_jj.  True when the ratio of the two is below kNearEnter (it is never below
+// s_min / s_max: far from a rank loss it cannot fire).
+bool Mechanism::rayleigh_small(const double* r) const {
+  const int nv = sys_.nv, nc = sys_.nc;
+  Work& w = work(sys_);
+  double rl = 0.0, ll = 0.0;
+  for (int i = 0; i < nc; ++i) {
+    rl += r[i] * w.lambda[i];
+    ll += w.lambda[i] * w.lambda[i];
+  }
+  if (!(ll > 0.0) || !(rl > 0.0)) return false;
+  double smax = 0.0;
+  for (int c = 0; c < nv; ++c) {
+    const double m = w.M[c + static_cast<std::size_t>(c) * nv];
+    if (!(m > 0.0)) continue;
+    for (int i = 0; i < nc; ++i) {
+      const double a = w.Phiq[i + static_cast<std::size_t>(c) * nc];
+      smax = std::max(smax, a * a / m);
+    }
+  }
+  return rl / ll < kNearEnter * smax;
+}
+
+void Mechanism::note_damped(double t, const double* q) const {
+  Work& w = work(sys_);
+  if (w.near_singular++ == 0) w.near_singular_note = fmt_time(t) + ": " + singular_rows(q);
+}
+
+// A projection's correction: the generated solve, screened (status 2, a regularized answer,
+// the hysteresis of rhs, or rayleigh_small); where the screen fires, the damped correction
+// (counted in near_singular only near a rank loss, 1e3 tau).
+// false: the generated solve failed (status in `status`) and no damped answer was taken.
+bool Mechanism::projection_solve(double t, const double* q, const double* r, int& status) const {
+  Work& w = work(sys_);
+  status = sys_.solve_augmented(w.M.data(), w.zero_nv.data(), w.Phiq.data(), w.gamma.data(), w.dv.data(),
+                                w.lambda.data());
+  if (set_.singular_damping > 0.0 && (status == 0 || status == 2)) {
+    const bool screen = status == 2 || (sys_.last_solve_regularized && sys_.last_solve_regularized()) ||
+                        w.near_mode == this || rayleigh_small(r);
+    if (screen) {
+      ++w.singular_checks;
+      std::vector<double> rr(r, r + sys_.nc);  // r may be w.phi, which damped_solve keeps
+      if (damped_solve(q, nullptr, rr.data(), true, w.dv.data())) note_damped(t, q);
+      return true;
+    }
+  }
+  return status == 0 || regularized_answer(status);
 }
 
 void Mechanism::project_positions(double t, double* q) const {
@@ -927,13 +1016,8 @@ void Mechanism::project_positions(double t, double* q) const {
   for (int it = 0; it < kMaxIt; ++it) {
     sys_.constraint_jacobian(q, w.Phiq.data());
     for (int i = 0; i < sys_.nc; ++i) w.gamma[i] = -w.phi[i];
-    if (set_.singular_damping > 0.0) {
-      damped_solve(q, nullptr, w.phi.data(), true, w.dv.data());
-    } else {
-      const int status = sys_.solve_augmented(w.M.data(), w.zero_nv.data(), w.Phiq.data(), w.gamma.data(),
-                                              w.dv.data(), w.lambda.data());
-      if (status != 0 && !regularized_answer(status)) fail(t, "projection onto Phi(q) = 0", status);
-    }
+    int status = 0;
+    if (!projection_solve(t, q, w.phi.data(), status)) fail(t, "projection onto Phi(q) = 0", status);
     retract(q, w.dv.data());
     sys_.constraints(q, w.phi.data());
     const double r_new = max_abs(w.phi);
@@ -961,14 +1045,9 @@ void Mechanism::project_velocities(double t, const double* q, double* v) const {
     for (int c = 0; c < sys_.nv; ++c) pv += w.Phiq[r + static_cast<std::size_t>(c) * sys_.nc] * v[c];
     w.gamma[r] = -pv;
   }
-  if (set_.singular_damping > 0.0) {
-    for (int r = 0; r < sys_.nc; ++r) w.phi[r] = -w.gamma[r];  // Phiq v
-    damped_solve(q, nullptr, w.phi.data(), true, w.dv.data());
-  } else {
-    const int status = sys_.solve_augmented(w.M.data(), w.zero_nv.data(), w.Phiq.data(), w.gamma.data(),
-                                            w.dv.data(), w.lambda.data());
-    if (status != 0 && !regularized_answer(status)) fail(t, "projection onto Phiq v = 0", status);
-  }
+  for (int r = 0; r < sys_.nc; ++r) w.phi[r] = -w.gamma[r];  // Phiq v
+  int status = 0;
+  if (!projection_solve(t, q, w.phi.data(), status)) fail(t, "projection onto Phiq v = 0", status);
   for (int i = 0; i < sys_.nv; ++i) v[i] += w.dv[i];
 }
 
@@ -1002,7 +1081,15 @@ OdeProblem Mechanism::problem() const {
 
 Stats Mechanism::run(double t0, double t_end, std::vector<double>& y, const Settings& settings,
                      const Observer& observe) const {
-  return integrate(problem(), t0, t_end, y, settings, observe);
+  Work& w = work(sys_);
+  w.near_singular = w.singular_checks = 0;
+  w.near_singular_note.clear();
+  w.near_mode = nullptr;
+  Stats st = integrate(problem(), t0, t_end, y, settings, observe);
+  st.near_singular = w.near_singular;
+  st.singular_checks = w.singular_checks;
+  st.near_singular_note = w.near_singular_note;
+  return st;
 }
 
 double Mechanism::energy(const double* y) const {

@@ -522,8 +522,9 @@ struct A02Run {
   std::vector<double> y;
 };
 
-A02Run a02_run(const jrgen::sim::System& sys, double tol, const std::vector<double>& th_ref) {
-  const jrgen::sim::Mechanism mech(sys);
+A02Run a02_run(const jrgen::sim::System& sys, double tol, const std::vector<double>& th_ref,
+               jrgen::sim::MechanismSettings ms = {}) {
+  const jrgen::sim::Mechanism mech(sys, ms);
   std::vector<double> q(sys.nq), v(sys.nv);
   a02_state(0.0, -1.0, q.data(), v.data());
   std::vector<double> y = mech.initial_state(q.data(), v.data());
@@ -582,12 +583,15 @@ TEST(IftommA02, PublishedRunThroughTheFlatConfiguration) {
 // the limit along the motion: integrating it changed the energy at each crossing and
 // ended 1.9 m off at 1e-10) both reject the step: the run either stays within the high
 // precision threshold or ends in a named failure naming a cut (B_i) or the loop's joints.
-// Never a silent wrong answer.
+// Never a silent wrong answer.  This is the path with MechanismSettings::singular_damping
+// off (0); with the default damping the same runs pass (DefaultDamping* below).
 TEST(IftommA02, TightToleranceIsRightOrANamedFailure) {
   const std::vector<double> exact = a02_reference_theta();
+  jrgen::sim::MechanismSettings off;
+  off.singular_damping = 0.0;
   for (const double tol : {1e-9, 1e-10}) {
     for (const jrgen::sim::System& sys : {JRGEN_SIM_SYSTEM(a02), JRGEN_SIM_SYSTEM(published_a02_proximal)}) {
-      const A02Run r = a02_run(sys, tol, exact);
+      const A02Run r = a02_run(sys, tol, exact, off);
       if (r.ok) {
         EXPECT_LE(r.err, 1e-3) << tol;
         EXPECT_EQ(r.st.regularized_used, 0) << r.st.regularized_note;
@@ -600,11 +604,12 @@ TEST(IftommA02, TightToleranceIsRightOrANamedFailure) {
   }
 }
 
-// Issue 29 item 5, in part: MechanismSettings::singular_damping (docs/simulation.md, "A02 in
-// time").  sdirk4 at tol 1e-6 over the first two flat crossings (t = 0.72 and 1.24 s, 1.5 s):
-// without it the run ends at t = 1.244 (status 2 in the finite-difference Jacobian, named);
-// with tau = 1e-10 it passes, measured 1.9e-7 from the reduced pendulum (max over the
-// cranks at t = 1.5), asserted 1e-5 (10 x tol: sdirk4's global error here).  About 1.7 s of CPU.
+// Issue 29 item 5: MechanismSettings::singular_damping (docs/simulation.md, "A02 in time").
+// sdirk4 at tol 1e-6 over the first two flat crossings (t = 0.72 and 1.24 s, 1.5 s): with
+// the damping off (0) the run ends in a named failure (status 2 in the finite-difference
+// Jacobian: at t = 1.244 before sdirk4's per-stage Newton tolerance, at t = 0.722 since);
+// with tau = 1e-10 (the default) it passes, measured 6.2e-8 from the reduced pendulum (max
+// over the cranks at t = 1.5), asserted 1e-5 (10 x tol: sdirk4's global error here).
 TEST(IftommA02, SingularDampingPassesTheCrossings) {
   const double c = kG * (0.5 * (kN + 1) + kN) / ((kN + 1) / 3.0 + kN);
   jrgen::sim::OdeProblem pend;
@@ -648,6 +653,125 @@ TEST(IftommA02, SingularDampingPassesTheCrossings) {
   }
 }
 
+// Issue 29 item 5: every integrator through A02's first flat crossings with the default
+// settings (MechanismSettings::singular_damping = 1e-10, docs/simulation.md "A02 in time"),
+// at a loose and a tight tolerance.  From the figure (th = 0, th' = -1) to t_end = 1.5 s:
+// the crossings at t = 0.72 and 1.24 s.  Error: at t_end, max over the cranks of |q_i - th|
+// and over the couplers of |q_i + th|, th from the reduced pendulum by SUNDIALS CVODE at
+// 1e-14 (tests/published/reference/a02_reduced.tsv, its row at 1.5 s).
+struct A02Span {
+  bool ok = false;
+  std::string failure;
+  double err = NAN;
+  double err_reduced = NAN;  // the same method and tolerance on the reduced pendulum alone
+  jrgen::sim::Stats st;
+  double cpu_s = 0.0;
+};
+
+A02Span a02_span(const std::string& method, double tol, double t_end, jrgen::sim::MechanismSettings ms = {}) {
+  const auto f = jrgen::reference::read_reference_file(JRGEN_SOURCE_DIR "/tests/published/reference/a02_reduced.tsv");
+  const double th = f.row_at(t_end)[f.column("th")];
+  const jrgen::sim::Mechanism mech(JRGEN_SIM_SYSTEM(a02), ms);
+  std::vector<double> q(a02::nq), v(a02::nv);
+  a02_state(0.0, -1.0, q.data(), v.data());
+  std::vector<double> y = mech.initial_state(q.data(), v.data());
+  jrgen::sim::Settings s;
+  s.method = method;
+  if (method == "rk4") s.dt = tol;
+  else s.rtol = s.atol = tol;
+  A02Span r;
+  const std::clock_t c0 = std::clock();
+  try {
+    r.st = mech.run(0.0, t_end, y, s);
+    r.ok = true;
+    r.err = 0.0;
+    for (int i = 0; i < a02::nv; ++i) r.err = std::max(r.err, std::abs(y[i] - (i % 2 == 0 ? th : -th)));
+  } catch (const jrgen::sim::Failure& e) {
+    r.failure = e.what();
+  }
+  r.cpu_s = double(std::clock() - c0) / CLOCKS_PER_SEC;
+  // The same method on the reduced pendulum alone (2 states), for comparison.
+  const double c = kG * (0.5 * (kN + 1) + kN) / ((kN + 1) / 3.0 + kN);
+  jrgen::sim::OdeProblem pend;
+  pend.n = 2;
+  pend.rhs = [c](double, const double* yy, double* dy, std::string&) {
+    dy[0] = yy[1];
+    dy[1] = c * std::sin(yy[0]);
+    return 0;
+  };
+  std::vector<double> red = {0.0, -1.0};
+  jrgen::sim::integrate(pend, 0.0, t_end, red, s);
+  r.err_reduced = std::abs(red[0] - th);
+  std::printf("A02 %s %s %g to t = %g: %s error %.2e (reduced equation alone %.2e), %ld steps (+%ld rejected), %ld calls, near_singular %ld, "
+              "singular_checks %ld, %.2f s CPU\n",
+              method.c_str(), method == "rk4" ? "dt" : "tol", tol, t_end, r.ok ? "ok" : r.failure.c_str(), r.err,
+              r.err_reduced,
+              r.st.steps, r.st.rejected, r.st.f_calls, r.st.near_singular, r.st.singular_checks, r.cpu_s);
+  return r;
+}
+
+// Each integrator passes the crossings at a loose and a tight tolerance with the default
+// settings, its error falling with the tolerance, and the tight run takes damped answers
+// (near_singular > 0: the path is exercised).  Spans: 1.5 s (two crossings); dopri5 and auto
+// at 1e-10 to 4 s, past t = 3.21 where the same run without the damping ends in a named
+// failure (TightToleranceIsRightOrANamedFailure), over the whole 20 s (the damping is first
+// used after 4 s).  sdirk4's tight run is tol 1e-9 to 1.0 s, the first crossing (1e-10 over
+// 1.5 s: 10 s of CPU).  Bounds: the error-controlled methods 100 tol at 1.5 s (their global
+// error is a modest multiple of tol, as in the extreme cases' asserts); dopri5 and auto at
+// 20 s 2e-6, 10 x the measured 1.97e-7 (the same method on the reduced pendulum alone ends
+// 1.66e-7 off: the phase error of 20 turn-overs); rk4 (no error control) 1e-6 at dt = 1e-2 and
+// 1e-7 at dt = 1e-3.  Measured (Release, 2026-12-07; a02_span prints the reduced equation's
+// error too): dopri5 1e-4 4.3e-4; radau5 4.5e-7, 3.9e-11; sdirk4 1.2e-7, 2.7e-10; rk4 2.7e-8,
+// 1.4e-9 (the finer step is at a floor of the projections and the damped stages, not dt^4:
+// the reduced equation alone 1.9e-12).
+void expect_a02_passes(const std::string& method, double loose, double loose_bound, double tight, double tight_bound,
+                       double t_tight = 1.5) {
+  const A02Span a = a02_span(method, loose, 1.5), b = a02_span(method, tight, t_tight);
+  ASSERT_TRUE(a.ok) << a.failure;
+  ASSERT_TRUE(b.ok) << b.failure;
+  EXPECT_LE(a.err, loose_bound) << method;
+  EXPECT_LE(b.err, tight_bound) << method;
+  EXPECT_LT(b.err, a.err) << method;
+  EXPECT_GT(b.st.near_singular, 0) << method;
+  EXPECT_EQ(b.st.regularized_used, 0) << method;
+}
+
+TEST(IftommA02, DefaultDampingDopri5PassesTheCrossings) { expect_a02_passes("dopri5", 1e-4, 1e-2, 1e-10, 2e-6, 20.0); }
+TEST(IftommA02, DefaultDampingAutoPassesTheCrossings) { expect_a02_passes("auto", 1e-4, 1e-2, 1e-10, 2e-6, 20.0); }
+TEST(IftommA02, DefaultDampingRadau5PassesTheCrossings) { expect_a02_passes("radau5", 1e-4, 1e-2, 1e-10, 1e-8); }
+TEST(IftommA02, DefaultDampingSdirk4PassesTheCrossings) { expect_a02_passes("sdirk4", 1e-4, 1e-2, 1e-9, 1e-7, 1.0); }
+TEST(IftommA02, DefaultDampingRk4PassesTheCrossings) { expect_a02_passes("rk4", 1e-2, 1e-6, 1e-3, 1e-7); }
+
+// Far from any rank loss the damping costs nothing: the screen (status 2, a regularized
+// answer, or cancelling multipliers) never fires, so no dense check runs and no answer is
+// damped.  Andrews' squeezer (7 rows, far from singular over the published 0.03 s) with
+// every error-controlled integrator at a loose and a tight tolerance (radau5 and sdirk4's
+// finite-difference Jacobians perturb the states too), and A02 over its first 0.5 s (th from
+// 0 to FAR_TH rad: the flat configuration is at -pi/2).
+TEST(IftommA02, FarFromSingularNeverDamps) {
+  for (const char* method : {"auto", "dopri5", "radau5", "sdirk4"}) {
+    for (const double tol : {1e-4, 1e-9}) {
+      jrgen::sim::Mechanism mech(JRGEN_SIM_SYSTEM(published_andrews));
+      const Vec q0 = to_jr(andrews_ref::q0);
+      std::vector<double> y = mech.initial_state(q0.data(), nullptr);
+      jrgen::sim::Settings s;
+      s.method = method;
+      s.rtol = s.atol = tol;
+      const jrgen::sim::Stats st = mech.run(0.0, andrews_ref::t_end, y, s);
+      std::printf("Andrews %s tol %g: %ld calls, near_singular %ld, singular_checks %ld\n", method, tol, st.f_calls,
+                  st.near_singular, st.singular_checks);
+      EXPECT_EQ(st.near_singular, 0) << method << " " << tol;
+      EXPECT_EQ(st.singular_checks, 0) << method << " " << tol;
+    }
+  }
+  for (const char* method : {"dopri5", "radau5"}) {
+    const A02Span r = a02_span(method, 1e-8, 0.5);
+    ASSERT_TRUE(r.ok) << r.failure;
+    EXPECT_EQ(r.st.near_singular, 0) << method;
+    EXPECT_EQ(r.st.singular_checks, 0) << method;
+  }
+}
+
 // Fixed steps have no error control; Stats::err_est (the sum of rk4's embedded local
 // estimates h / 6 |k4 - f(y1)|, docs/simulation.md "Fixed steps: err_est") says how far off
 // the run may be, and the simulator warns above 1e-3 of max(1, max |y(0)|) (here 1).
@@ -656,8 +780,12 @@ TEST(IftommA02, SingularDampingPassesTheCrossings) {
 // the top); dt = 0.01 6.1e-6 / 6.2e-5; dt = 1e-3 9.6e-2 / 1.8 (a stage 8e-6 rad from the flat
 // configuration at t = 18.41, where the acceleration of the slightly unassembled state is
 // that of the other branch: the step's last stage and f at its result then disagree).
-// Asserted: the estimate is at least a third of the error (the warning fires whenever the
-// error exceeds 3e-3), and the dt = 0.01 run does not warn.
+// Those were without MechanismSettings::singular_damping; with the default damping the
+// dt = 1e-3 run's stages near the flat configuration get the damped acceleration: measured
+// 7.2e-6 / 4.2e-2 (the estimate stays high: one step's stages and f at its result still
+// disagree, largest step estimate 3.5e-2), dt = 0.05 1.7e-2 / 7.3e-3, dt = 0.01 6.1e-6 /
+// 9.3e-5.  Asserted: the estimate is at least a third of the error (the warning fires
+// whenever the error exceeds 3e-3), and the dt = 0.01 run does not warn.
 TEST(IftommA02, FixedStepRunsSayHowFarOffTheyMayBe) {
   std::vector<double> exact;
   a02_reduced_theta(1e-13, &exact);

@@ -6,6 +6,14 @@
 // step of one more run with an observer).  Drawn by scripts/simulation_report.sh.
 //
 //   published_work_precision [--quick] [--check] [-o runs.tsv] [--series drift.tsv] [--only NAME]
+//                            [--method M1,M2,...] [--tols T1,T2,...] [--budget S] [--no-drift]
+//
+// --method: the integrators to sweep (default dopri5,radau5,sdirk4,auto; rk4 rows come with
+// the full sweep unless --method names others only); --tols: the tolerances (loosest first);
+// --budget: stop a method's sweep after a run above S CPU seconds (default 20, --quick 5);
+// --no-drift: skip the observed run of each row (its drift columns are nan), which doubles
+// the time of a sweep.  The columns near_singular and singular_checks are Stats' counts of
+// MechanismSettings::singular_damping (damped answers near a rank loss, dense checks).
 //
 // --quick: three tolerances, short spans (the ctest); --check: exit 1 unless, for every
 // method and problem, the error falls as tol tightens (see check_runs) and auto ends within
@@ -341,6 +349,8 @@ struct Row {
   std::string status = "ok";
 };
 
+bool g_no_drift = false;  // --no-drift
+
 // Timed runs (no observer): 7 repetitions below 20 ms, 3 below 0.5 s, else 1; the median.
 Row timed_run(const Problem& p, const Mechanism& m, const Settings& s) {
   Row r(s);
@@ -362,7 +372,8 @@ Row timed_run(const Problem& p, const Mechanism& m, const Settings& s) {
   std::sort(times.begin(), times.end());
   r.cpu = times[times.size() / 2];
   r.reps = reps;
-  r.drift = observed_run(p, m, s, nullptr);
+  if (g_no_drift) r.drift.energy = r.drift.phi = r.drift.phiqv = NAN;
+  else r.drift = observed_run(p, m, s, nullptr);
   return r;
 }
 
@@ -390,7 +401,7 @@ void file_reference(Problem& p, const std::string& file) {
 
 const char* kHeader =
     "problem\tmethod\ttol\tdt\terror\tcpu_s\treps\tfd_calls\tsteps\trejected\tswitched\t"
-    "energy_drift\tphi_max\tphiqv_max\tstatus\n";
+    "energy_drift\tphi_max\tphiqv_max\tnear_singular\tsingular_checks\tstatus\n";
 
 void write_row(FILE* f, const Problem& p, const Row& r) {
   std::fprintf(f, "%s\t%s\t%.0e\t%.0e\t%.3e\t%.4e\t%d\t%ld\t%ld\t%ld\t%ld\t", p.name.c_str(), r.method.c_str(), r.tol,
@@ -400,14 +411,14 @@ void write_row(FILE* f, const Problem& p, const Row& r) {
     std::fprintf(f, "%.3e\t%.3e\t", r.drift.phi, r.drift.phiqv);
   else
     std::fprintf(f, "n/a\tn/a\t");
-  std::fprintf(f, "%s\n", r.status.c_str());
+  std::fprintf(f, "%ld\t%ld\t%s\n", r.st.near_singular, r.st.singular_checks, r.status.c_str());
   std::fflush(f);
 }
 
 // The sweep of one problem: each method over `tols` (tightest last), stopping a method's
 // sweep once one run took more than `budget` CPU seconds; rk4 at its fixed steps.
 std::vector<Row> sweep(const Problem& p, const Mechanism& m, const std::vector<double>& tols, bool quick,
-                       double budget, FILE* out) {
+                       double budget, FILE* out, bool rk4 = true) {
   std::vector<Row> rows;
   for (const std::string& method : p.methods) {
     for (double tol : tols) {
@@ -419,7 +430,7 @@ std::vector<Row> sweep(const Problem& p, const Mechanism& m, const std::vector<d
       if (!(rows.back().cpu <= budget)) break;
     }
   }
-  if (quick) return rows;
+  if (quick || !rk4) return rows;
   for (double dt : p.rk4_dt) {
     Settings s;
     s.method = "rk4";
@@ -502,7 +513,21 @@ int check_runs(const Problem& p, const std::vector<Row>& rows) {
 struct Options {
   bool quick = false, check = false;
   std::string out, series, only;
+  std::vector<std::string> methods;  // --method (empty: each problem's)
+  std::vector<double> tols;          // --tols (empty: the default sweep)
+  double budget = NAN;               // --budget (NaN: 20 s, --quick 5 s)
 };
+
+std::vector<std::string> split(const std::string& text) {
+  std::vector<std::string> out;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t comma = text.find(',', start);
+    out.push_back(text.substr(start, comma - start));
+    if (comma == std::string::npos) return out;
+    start = comma + 1;
+  }
+}
 
 Options parse(int argc, char** argv) {
   Options o;
@@ -517,7 +542,13 @@ Options parse(int argc, char** argv) {
     else if (a == "-o") o.out = value();
     else if (a == "--series") o.series = value();
     else if (a == "--only") o.only = value();
-    else throw std::runtime_error("unknown option '" + a + "' (use --quick, --check, -o FILE, --series FILE, --only NAME)");
+    else if (a == "--method") o.methods = split(value());
+    else if (a == "--tols")
+      for (const std::string& t : split(value())) o.tols.push_back(std::stod(t));
+    else if (a == "--budget") o.budget = std::stod(value());
+    else if (a == "--no-drift") g_no_drift = true;
+    else throw std::runtime_error("unknown option '" + a + "' (use --quick, --check, -o FILE, --series FILE, --only NAME, "
+                                  "--method M1,M2, --tols T1,T2, --budget S, --no-drift)");
   }
   return o;
 }
@@ -538,22 +569,31 @@ int main(int argc, char** argv) {
     FILE* ser = o.series.empty() ? nullptr : open_or_stdout(o.series);
     std::fputs(kHeader, out);
     if (ser) std::fputs("problem\tstabilization\tt\tenergy_drift\tphi\tphiqv\n", ser);
-    const std::vector<double> tols = o.quick ? std::vector<double>{1e-4, 1e-6, 1e-8}
-                                             : std::vector<double>{1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10};
+    const std::vector<double> tols = !o.tols.empty() ? o.tols
+                                     : o.quick      ? std::vector<double>{1e-4, 1e-6, 1e-8}
+                                                    : std::vector<double>{1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10};
+    const double budget = !std::isnan(o.budget) ? o.budget : o.quick ? 5.0 : 20.0;
+    bool rk4 = true;  // --method without rk4: no fixed-step rows
+    if (!o.methods.empty()) rk4 = std::find(o.methods.begin(), o.methods.end(), "rk4") != o.methods.end();
     int fails = 0;
     for (auto make : {a01, a02, a03, a04, a05}) {
       Problem p = make(o.quick);
       if (!o.only.empty() && p.name != o.only) continue;
+      if (!o.methods.empty()) {
+        p.methods.clear();
+        for (const std::string& mth : o.methods)
+          if (mth != "rk4") p.methods.push_back(mth);
+      }
       const Mechanism m(p.sys);
       if (p.name == "A04") file_reference(p, "a04.tsv");
       if (p.name == "A05") file_reference(p, "a05.tsv");
       std::fprintf(stderr, "%s: t_end = %g s (%s); reference: %s\n", p.name.c_str(), p.t_end, p.span_note.c_str(),
                    p.ref_note.c_str());
-      const std::vector<Row> rows = sweep(p, m, tols, o.quick, o.quick ? 5.0 : 20.0, out);
+      const std::vector<Row> rows = sweep(p, m, tols, o.quick, budget, out, rk4);
       if (ser) write_series(ser, p);
       if (o.check) fails += check_runs(p, rows);
     }
-    if (!o.quick && (o.only.empty() || o.only == "A02"))
+    if (!o.quick && (o.only.empty() || o.only == "A02") && o.methods.empty() && o.tols.empty())
       {
         const Problem p = a02_proximal();
         std::fprintf(stderr, "%s: t_end = %g s (%s); reference: %s\n", p.name.c_str(), p.t_end, p.span_note.c_str(),

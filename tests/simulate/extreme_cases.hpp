@@ -54,6 +54,8 @@ struct Case {
   std::function<double(const double* y)> invariant;
   double invariant_scale = 1.0;
   std::string invariant_name;
+  /// The Mechanism's settings (default: projection, singular_damping 1e-10).
+  sim::MechanismSettings ms;
 };
 
 struct Result {
@@ -72,7 +74,7 @@ struct Result {
 };
 
 inline Result measure(const Case& c, const std::string& method, double tol, const Vec* q_ref) {
-  const sim::Mechanism m(c.sys);
+  const sim::Mechanism m(c.sys, c.ms);
   Result r;
   const int nq = c.sys.nq, nv = c.sys.nv;
   Vec y;

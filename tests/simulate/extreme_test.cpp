@@ -141,7 +141,18 @@ TEST(ExtremeTime, Rope50ReleasedHorizontalKeepsTheTolerance) {
 // the change points costs no digit.  Their stages never land within the
 // ~1e-7 rad where the solver's digit test fails, so the --singular proximal
 // solver gives bitwise the same run.  sdirk4's finite-difference Jacobian
-// does land there: status 2 naming the loop, at the change point.
+// does land there: with the default MechanismSettings::singular_damping
+// (docs/simulation.md, "Near a rank loss") it gets the damped answer and
+// passes, but 60 x further off than sdirk4 on the reduced equation alone
+// (measured 5.9e-5 against 9.7e-7 at tol 1e-7; auto, radau5: equal).  Not
+// explained yet; asserted: it passes, below 1e-3 (17 x the measurement).  With the damping off (0): status 2
+// naming the loop, at the change point.
+Case damping_off(Case c) {
+  c.ms.singular_damping = 0.0;
+  c.name += ", singular_damping 0";
+  return c;
+}
+
 TEST(ExtremeTime, ParallelogramThroughItsChangePoints) {
   const double tol = 1e-7;
   const Case c = parallelogram(false), cp = parallelogram(true);
@@ -154,7 +165,13 @@ TEST(ExtremeTime, ParallelogramThroughItsChangePoints) {
     EXPECT_LE(r.phi, 1e-12);
     EXPECT_EQ(r.y, p.y) << method;  // bitwise
   }
-  const Result s = checked(c, "sdirk4", tol, {});
+  const double reduced = std::abs(parallelogram_theta(0.3, 1.0, c.t_end, "sdirk4", tol) - c.q_exact[0]);
+  const Result d = checked(c, "sdirk4", tol, {});
+  ASSERT_TRUE(d.ok) << d.failure;
+  std::printf("  reduced equation alone: error %.2e; near_singular %ld\n", reduced, d.st.near_singular);
+  EXPECT_LT(d.err, 1e-3);
+  EXPECT_GT(d.st.near_singular, 0);
+  const Result s = checked(damping_off(c), "sdirk4", tol, {});
   ASSERT_FALSE(s.ok);
   EXPECT_NE(s.failure.find("status 2"), std::string::npos) << s.failure;
   EXPECT_NE(s.failure.find("loop joint 'pin'"), std::string::npos) << s.failure;
@@ -168,28 +185,39 @@ TEST(ExtremeTime, ParallelogramThroughItsChangePoints) {
 // last_solve_regularized() (JRGEN_SIM_SYSTEM finds it from inside this
 // namespace too) and rejects a step whose stage was regularized: the run ends
 // in a named step size underflow at the change point, naming the loop's joints.
+// (With the damping off: by default the damped answer replaces the regularized
+// one, ParallelogramThroughItsChangePoints.)
 TEST(ExtremeTime, RegularizedStagesAreNotIntegratedSilently) {
   EXPECT_NE(parallelogram(true).sys.last_solve_regularized, nullptr);
   EXPECT_EQ(parallelogram(false).sys.last_solve_regularized, nullptr);
-  const Result s = checked(parallelogram(true), "sdirk4", 1e-7, {});
+  const Result s = checked(damping_off(parallelogram(true)), "sdirk4", 1e-7, {});
   ASSERT_FALSE(s.ok) << "error " << s.err;
   EXPECT_NE(s.failure.find("forward dynamics regularized"), std::string::npos) << s.failure;
-  EXPECT_NE(s.failure.find("joints 'crank_joint', 'coupler_joint', 'rocker_joint'"), std::string::npos) << s.failure;
+  EXPECT_NE(s.failure.find("the loop through joints 'crank_joint'"), std::string::npos) << s.failure;
   EXPECT_NEAR(parallelogram_theta(0.3, 1.0, s.t_fail), M_PI / 2, 1e-4) << s.failure;
 }
 
-// Released at the change point itself.  Without --singular proximal the
-// velocity projection of the start fails: status 2 naming the loop, t = 0.
-// With it, auto at 1e-7 follows the reduced equation (table: 0.8 tol).
-// radau5 at 1e-10 stays in the regularized band and ends in a named step
-// size underflow.
+// Released at the change point itself.  With the default singular_damping,
+// both solvers pass with auto at 1e-7 (within 100 tol of the reduced
+// equation), the start's solves damped.  With the damping off: without
+// --singular proximal the velocity projection of the start fails: status 2
+// naming the loop, t = 0.  With it, auto at 1e-7 follows the reduced
+// equation (table: 0.8 tol).  radau5 at 1e-10 stays in the regularized band
+// and ends in a named step size underflow.
 TEST(ExtremeTime, ParallelogramStartedAtItsChangePoint) {
-  const Result d = checked(parallelogram(false, true), "auto", 1e-7, {});
+  for (const bool proximal : {false, true}) {
+    const Result g = checked(parallelogram(proximal, true), "auto", 1e-7, {});
+    ASSERT_TRUE(g.ok) << g.failure;
+    EXPECT_LT(g.err, 100 * 1e-7);
+    EXPECT_GT(g.st.near_singular, 0);
+    EXPECT_EQ(g.st.regularized_used, 0);
+  }
+  const Result d = checked(damping_off(parallelogram(false, true)), "auto", 1e-7, {});
   ASSERT_FALSE(d.ok);
   EXPECT_EQ(d.t_fail, 0.0);
   EXPECT_NE(d.failure.find("projection onto Phiq v = 0: solver status 2"), std::string::npos) << d.failure;
   EXPECT_NE(d.failure.find("loop joint 'pin'"), std::string::npos) << d.failure;
-  const Result p = checked(parallelogram(true, true), "auto", 1e-7, {});
+  const Result p = checked(damping_off(parallelogram(true, true)), "auto", 1e-7, {});
   ASSERT_TRUE(p.ok) << p.failure;
   EXPECT_LT(p.err, 100 * 1e-7);
   // The start is on the change point: its regularized answer is used, once, and said.
@@ -198,10 +226,10 @@ TEST(ExtremeTime, ParallelogramStartedAtItsChangePoint) {
       << p.st.regularized_note;
   // dopri5 at 1e-10 took many short steps inside the band and ended 1.9e-3
   // off without an error; now its regularized stages are rejected: named.
-  const Result t = checked(parallelogram(true, true), "dopri5", 1e-10, {});
+  const Result t = checked(damping_off(parallelogram(true, true)), "dopri5", 1e-10, {});
   if (t.ok) EXPECT_LT(t.err, 100 * 1e-10);
   else EXPECT_NE(t.failure.find("forward dynamics regularized"), std::string::npos) << t.failure;
-  const Result u = checked(parallelogram(true, true), "radau5", 1e-10, {});
+  const Result u = checked(damping_off(parallelogram(true, true)), "radau5", 1e-10, {});
   ASSERT_FALSE(u.ok);
   EXPECT_NE(u.failure.find("step size underflow"), std::string::npos) << u.failure;
 }

@@ -66,6 +66,10 @@
 // a regularized answer at an accepted state (a run started or landing on the
 // singular configuration) is used, counted in Stats::regularized_used and
 // described in Stats::regularized_note (time, constraint row and joints).
+// With MechanismSettings::singular_damping (default 1e-10), a status 2 or a
+// regularized answer near a rank loss of the constraint rows is replaced by
+// the damped solve's (status 0, counted in Stats::near_singular) before any
+// of this: the regularized path above is what remains with the damping off.
 #pragma once
 
 #include <cmath>
@@ -126,6 +130,13 @@ struct Stats {
   long regularized = 0;  ///< f calls answered by a regularized solve (kRhsRegularized), used or not
   long regularized_used = 0;  ///< of these, at accepted states: their answers are in the result
   std::string regularized_note;  ///< the first used one: "at t = ...: " and rhs's description
+  /// Mechanism::run with MechanismSettings::singular_damping: f calls and projection solves
+  /// answered by the damped solve near a rank loss of the constraint rows, and the dense
+  /// checks (eigendecompositions of W) the screen ran, damped or not.  Zero away from any
+  /// rank loss.
+  long near_singular = 0;
+  long singular_checks = 0;
+  std::string near_singular_note;  ///< the first damped answer: "at t = ...: " and the rows
   /// The sum over accepted steps of each step's local error estimate (max norm, the state's
   /// units): a first-order estimate of how far off the result may be, without the growth or
   /// decay of errors along the motion (docs/simulation.md, "Fixed steps: err_est").  rk4:
@@ -195,14 +206,32 @@ struct MechanismSettings {
   /// measured in millimetres) or after 30 iterations is a Failure.
   double phi_tol = 1e-12;
   /// Crossing a configuration where the constraint rows lose rank (a parallelogram's flat
-  /// configuration), at tight tolerances.  0 (default): off.  tau > 0: wherever the smallest
-  /// eigenvalue of W = Phiq M^-1 Phiq^T is below 1e3 tau times its largest, the
-  /// accelerations come from a dense solve that damps W's eigencomponents below tau times
-  /// the largest (Tikhonov: 1 / s becomes s / (s^2 + (tau s_max)^2)), and the projections
-  /// always use that damped correction.  Costs a dense eigendecomposition of W per f call
-  /// and per projection step (docs/simulation.md, "A02 in time": tau = 1e-10 there).
-  double singular_damping = 0.0;
+  /// configuration; docs/simulation.md, "A02 in time").  tau > 0 (default 1e-10, for
+  /// mechanisms with constraints): where the generated solve says the rows are near a rank
+  /// loss, the accelerations and the projections' corrections come from a dense solve that
+  /// damps the eigencomponents of W = Phiq M^-1 Phiq^T below tau times its largest
+  /// eigenvalue (Tikhonov: 1 / s becomes s / (s^2 + (tau s_max)^2)).  The dense solve
+  /// (an eigendecomposition of W) runs only when a screen fires: the generated solve
+  /// returned status 2 or a regularized answer; or a projection's solve (lambda = W^-1 r, one
+  /// step of inverse iteration) gives a Rayleigh quotient below kNearEnter times a bound of
+  /// W's largest eigenvalue; or the last dense check found W within kNearExit tau of a rank
+  /// loss.  There the accelerations are damped only if W's smallest eigenvalue is below
+  /// 1e3 tau times its largest, else the generated answer stands; the projections use the
+  /// damped correction.
+  /// Stats::near_singular counts the damped answers, Stats::singular_checks the dense
+  /// eigendecompositions.  0: off (the generated solver's answers, its status 2 a Failure).
+  /// Not used with Stabilization::kBaumgarte; with kNone no projection runs, so only a
+  /// status 2 or a regularized answer fires the screen.
+  double singular_damping = 1e-10;
 };
+
+/// The screen of MechanismSettings::singular_damping.  The projections (once per accepted
+/// step) estimate W's smallest eigenvalue from their own solve; below kNearEnter times a
+/// bound of its largest, a dense check runs.  A dense check that finds W's smallest
+/// eigenvalue below kNearExit tau times its largest makes every later f call and projection
+/// run the dense check too, until one finds it above (hysteresis).
+inline constexpr double kNearEnter = 1e-5;
+inline constexpr double kNearExit = 1e4;
 
 class Mechanism {
  public:
@@ -247,9 +276,18 @@ class Mechanism {
   void retract(double* q, const double* dv) const;  // q <- q (+) dv
   void project_positions(double t, double* q) const;
   bool regularized_answer(int status) const;  // status 2 with a regularized answer written
-  // MechanismSettings::singular_damping: false when W is far from singular (no answer);
-  // else dv = -M^-1 Phiq^T W_damped^+ r (r = nullptr: the acceleration into dv, with tau).
+  // MechanismSettings::singular_damping: whether W is near a rank loss (its smallest
+  // eigenvalue below 1e3 tau s_max); then, or with `always`, dv = -M^-1 Phiq^T W_damped^+ r
+  // (r = nullptr: the acceleration into dv, with the joint forces of the work buffer).
   bool damped_solve(const double* q, const double* v, const double* r, bool always, double* dv) const;
+  // The projections' screen (after solve_augmented with right-hand side r into the work
+  // buffers): the Rayleigh quotient of lambda below kNearEnter times a bound of W's largest.
+  bool rayleigh_small(const double* r) const;
+  // The damped answer was used at t (counted for Stats::near_singular).
+  void note_damped(double t, const double* q) const;
+  // A projection's correction into the work buffer's dv (r: its right-hand side, Phi or
+  // Phiq v); false when the generated solve failed with `status` and nothing was damped.
+  bool projection_solve(double t, const double* q, const double* r, int& status) const;
   void project_velocities(double t, const double* q, double* v) const;
   void normalize_quaternions(double* q) const;
   [[noreturn]] void fail(double t, const char* what, int status) const;
