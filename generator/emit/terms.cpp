@@ -167,6 +167,16 @@ std::string size_text(const Built& b) {
   return b.definitions.empty() ? "too many statements" : fmt::format("{} statements", b.emitted.statements);
 }
 
+// The generation-time upper bounds of each M_jj over all configurations
+// (topology::mass_diagonal_bounds), as the generated tables hold them: 0 where
+// there is none (a joint below translates), and 0 throughout when not `bounded`.
+std::vector<double> mass_diagonal_table(const topology::Tree& t, bool bounded = true) {
+  std::vector<double> bounds = topology::mass_diagonal_bounds(t);
+  for (double& b : bounds)
+    if (std::isinf(b) || !bounded) b = 0.0;
+  return bounds;
+}
+
 // check_articulated(), with the table it tests the pivots against: an upper
 // bound of each M_jj over all configurations (topology::mass_diagonal_bounds;
 // 0 where there is none, a joint below translating: then only D_j > 0).
@@ -175,9 +185,7 @@ std::string size_text(const Built& b) {
 // bound exceeds M_jj by 1e4 and more, and the test would report regular
 // states (docs/status.md says what is checked there).
 std::string check_articulated(const topology::Tree& t, bool bounded) {
-  std::vector<double> bounds = topology::mass_diagonal_bounds(t);
-  for (double& b : bounds)
-    if (std::isinf(b) || !bounded) b = 0.0;
+  const std::vector<double> bounds = mass_diagonal_table(t, bounded);
   return fmt::format(
       "// Upper bounds of M's diagonal entries over all configurations, Lemma 2 order\n"
       "// (0: none): a pivot D_j must exceed kMassPivotTolerance times its entry, as\n"
@@ -213,9 +221,7 @@ std::string check_articulated(const topology::Tree& t, bool bounded) {
 // bound of M_jj) the error estimate of one step of iterative refinement
 // (jr::articulated_error_estimate, four more O(n) passes) decides.
 std::string check_refined(const topology::Tree& t, const Options& options) {
-  std::vector<double> bounds = topology::mass_diagonal_bounds(t);
-  for (double& b : bounds)
-    if (std::isinf(b)) b = 0.0;
+  const std::vector<double> bounds = mass_diagonal_table(t);
   return fmt::format(
       "// Status 0 means 6 digits on this route too (docs/status.md).  A local pivot\n"
       "// ratio (jr::LocalPivotRatio: a pivot over its diagonal entry before the\n"
@@ -266,9 +272,7 @@ std::string check_refined(const topology::Tree& t, const Options& options) {
 // (jr::articulated_closed_error_estimate).  Code 1 names the joint of M's
 // screen, code 2 the row of W's, whichever is further below its trigger.
 std::string check_closed(const topology::Tree& t, const Options& options) {
-  std::vector<double> bounds = topology::mass_diagonal_bounds(t);
-  for (double& b : bounds)
-    if (std::isinf(b)) b = 0.0;
+  const std::vector<double> bounds = mass_diagonal_table(t);
   return fmt::format(
       "// Status of jr::articulated_closed (k: -1, a dof of M, or nv + a row of W), then\n"
       "// the digits tests of M's and W's pivots as after Steps 1 and 3.4; lambda copied.\n"

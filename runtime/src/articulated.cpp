@@ -215,6 +215,31 @@ void acceleration_pass(const Model& model, const BodyState* bodies, ArticulatedS
   }
 }
 
+constexpr double kEps = 0x1p-52;
+
+// The rounding floor of the residual r = tau - (M qdd + h) that inverse_dynamics
+// just computed (each body's subtree force f_j left in bodies[i].f), added to
+// |r| in place: r_j <- |r_j| + eps |S_j^T| |f_j|, plus, with bounds B_j >= M_jj,
+// eps sqrt(B_j) sum_k sqrt(B_k) |qdd_k| >= eps (|M| |qdd|)_j (|M_jk| <=
+// sqrt(M_jj M_kk)), the floor of a backward-stable solve.  Shared by the
+// error estimates of the tree and closed-loop routes.
+void mass_residual_floor(const Model& model, const BodyState* bodies, const double* qdd_lem,
+                         const double* diagonal_bounds, double* r) {
+  double moment = 0.0;
+  if (diagonal_bounds != nullptr)
+    for (std::int32_t j = 0; j < model.nv; ++j) moment += std::sqrt(diagonal_bounds[j]) * std::abs(qdd_lem[j]);
+  for (std::int32_t i = 0; i < model.nb; ++i) {
+    const BodyModel& bm = model.bodies[i];
+    const BodyState& b = bodies[i];
+    const double n = b.f.head<3>().norm(), f = b.f.tail<3>().norm();
+    for (int k = 0; k < bm.nv; ++k) {
+      const std::int32_t j = bm.v_lem + k;
+      const double bound = diagonal_bounds != nullptr ? kEps * std::sqrt(diagonal_bounds[j]) * moment : 0.0;
+      r[j] = std::abs(r[j]) + kEps * (b.S.col(k).head<3>().norm() * n + b.S.col(k).tail<3>().norm() * f) + bound;
+    }
+  }
+}
+
 }  // namespace
 
 template <bool kGravity, bool kDamping>
@@ -336,26 +361,10 @@ double articulated_error_estimate(const Model& model, BodyState* bodies, Articul
     d1 = std::max(d1, std::abs(d[j]));
     x = std::max(x, std::abs(qdd_lem[j]));
   }
-  // w = |r| + the rounding floor of each residual entry, eps |S_j^T| |f_j|
-  // (f_j, the subtree force, as inverse_dynamics left it), into r; then
-  // Hager's step: z = M^-1 w, d2 = M^-1 (sign(z) w).
-  constexpr double kEps = 0x1p-52;
-  // With bounds B_j >= M_jj: eps sqrt(B_j) sum_k sqrt(B_k) |qdd_k| >= eps (|M| |qdd|)_j
-  // (|M_jk| <= sqrt(M_jj M_kk)), the floor of a backward-stable solve.
-  double moment = 0.0;
-  if (diagonal_bounds != nullptr)
-    for (std::int32_t j = 0; j < nv; ++j) moment += std::sqrt(diagonal_bounds[j]) * std::abs(qdd_lem[j]);
-  for (std::int32_t i = 0; i < model.nb; ++i) {
-    const BodyModel& bm = model.bodies[i];
-    const BodyState& b = bodies[i];
-    const double n = b.f.head<3>().norm(), f = b.f.tail<3>().norm();
-    for (int k = 0; k < bm.nv; ++k) {
-      const std::int32_t j = bm.v_lem + k;
-      const double bound = diagonal_bounds != nullptr ? kEps * std::sqrt(diagonal_bounds[j]) * moment : 0.0;
-      d[j] = r[j] =
-          std::abs(r[j]) + kEps * (b.S.col(k).head<3>().norm() * n + b.S.col(k).tail<3>().norm() * f) + bound;
-    }
-  }
+  // w = |r| + the rounding floor of each residual entry (mass_residual_floor),
+  // into r; then Hager's step: z = M^-1 w, d2 = M^-1 (sign(z) w).
+  mass_residual_floor(model, bodies, qdd_lem, diagonal_bounds, r);
+  for (std::int32_t j = 0; j < nv; ++j) d[j] = r[j];
   articulated_solve(model, bodies, work, d);
   double e = d1;
   for (std::int32_t j = 0; j < nv; ++j) {
@@ -550,22 +559,9 @@ double articulated_closed_error_estimate(const Model& model, const ConstraintMod
     d1 = std::max(d1, std::abs(d[j]));
     x = std::max(x, std::abs(qdd_lem[j]));
   }
-  // w: |r| plus each entry's rounding floor (as articulated_error_estimate,
-  // and the rows' products with lambda and qdd).
-  constexpr double kEps = 0x1p-52;
-  double moment = 0.0;
-  if (diagonal_bounds != nullptr)
-    for (std::int32_t j = 0; j < nv; ++j) moment += std::sqrt(diagonal_bounds[j]) * std::abs(qdd_lem[j]);
-  for (std::int32_t i = 0; i < model.nb; ++i) {
-    const BodyModel& bm = model.bodies[i];
-    const BodyState& b = bodies[i];
-    const double nf = b.f.head<3>().norm(), ff = b.f.tail<3>().norm();
-    for (int k = 0; k < bm.nv; ++k) {
-      const std::int32_t j = bm.v_lem + k;
-      const double bound = diagonal_bounds != nullptr ? kEps * std::sqrt(diagonal_bounds[j]) * moment : 0.0;
-      r[j] = std::abs(r[j]) + kEps * (b.S.col(k).head<3>().norm() * nf + b.S.col(k).tail<3>().norm() * ff) + bound;
-    }
-  }
+  // w: |r| plus each entry's rounding floor (mass_residual_floor, and the
+  // rows' products with lambda and qdd).
+  mass_residual_floor(model, bodies, qdd_lem, diagonal_bounds, r);
   for_each_kept_row(cm, Phiq_packed, [&](const CutModel& cut, std::int32_t k, const double* row) {
     double b = std::abs(gamma[k]);
     for_each_row_entry(model, cut, [&](std::int32_t index, std::int32_t dof) {

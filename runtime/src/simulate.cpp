@@ -848,15 +848,11 @@ int Mechanism::rhs(double t, const double* y, double* dydt, std::string& error) 
     // MechanismSettings::singular_damping: the screen (free: the solve's status and flag,
     // and whether the last dense check found W within kNearExit tau of a rank loss), then
     // the dense check, which damps only near a rank loss (else the answer stands).
-    if (set_.singular_damping > 0.0 && sys_.nc > 0 && (status == 0 || status == 2)) {
-      const bool screen = status == 2 || (sys_.last_solve_regularized && sys_.last_solve_regularized()) ||
-                          w.near_mode == this;
-      if (screen) {
-        ++w.singular_checks;
-        if (damped_solve(q, v, nullptr, false, dydt + sys_.nq)) {
-          note_damped(t, q);
-          return 0;
-        }
+    if (set_.singular_damping > 0.0 && sys_.nc > 0 && (status == 0 || status == 2) && damping_screen(status)) {
+      ++w.singular_checks;
+      if (damped_solve(q, v, nullptr, false, dydt + sys_.nq)) {
+        note_damped(t, q);
+        return 0;
       }
     }
   }
@@ -949,6 +945,11 @@ bool Mechanism::damped_solve(const double* q, const double* v, const double* r, 
   return near;
 }
 
+bool Mechanism::damping_screen(int status) const {
+  return status == 2 || (sys_.last_solve_regularized && sys_.last_solve_regularized()) ||
+         work(sys_).near_mode == this;
+}
+
 // The projection's free estimate of W's smallest eigenvalue: its solve gave lambda = W^-1 r
 // (r = Phi or Phiq v, a rounding-size residual with components along every eigenvector),
 // one step of inverse iteration, so r^T lambda / lambda^T lambda >= s_min, close to it
@@ -990,9 +991,7 @@ bool Mechanism::projection_solve(double t, const double* q, const double* r, int
   status = sys_.solve_augmented(w.M.data(), w.zero_nv.data(), w.Phiq.data(), w.gamma.data(), w.dv.data(),
                                 w.lambda.data());
   if (set_.singular_damping > 0.0 && (status == 0 || status == 2)) {
-    const bool screen = status == 2 || (sys_.last_solve_regularized && sys_.last_solve_regularized()) ||
-                        w.near_mode == this || rayleigh_small(r);
-    if (screen) {
+    if (damping_screen(status) || rayleigh_small(r)) {
       ++w.singular_checks;
       std::vector<double> rr(r, r + sys_.nc);  // r may be w.phi, which damped_solve keeps
       if (damped_solve(q, nullptr, rr.data(), true, w.dv.data())) note_damped(t, q);

@@ -280,6 +280,9 @@ class Mechanism {
   // eigenvalue below 1e3 tau s_max); then, or with `always`, dv = -M^-1 Phiq^T W_damped^+ r
   // (r = nullptr: the acceleration into dv, with the joint forces of the work buffer).
   bool damped_solve(const double* q, const double* v, const double* r, bool always, double* dv) const;
+  // The free part of the damping's screen, after a generated solve that returned `status`
+  // (0 or 2): status 2, a regularized answer, or a last dense check near a rank loss.
+  bool damping_screen(int status) const;
   // The projections' screen (after solve_augmented with right-hand side r into the work
   // buffers): the Rayleigh quotient of lambda below kNearEnter times a bound of W's largest.
   bool rayleigh_small(const double* r) const;
